@@ -1,0 +1,22 @@
+
+# Consider dependencies only in project.
+set(CMAKE_DEPENDS_IN_PROJECT_ONLY OFF)
+
+# The set of languages for which implicit dependencies are needed:
+set(CMAKE_DEPENDS_LANGUAGES
+  )
+
+# The set of dependency files which are needed:
+set(CMAKE_DEPENDS_DEPENDENCY_FILES
+  "/work/main/service/src/main.cpp" "service/CMakeFiles/runout.dir/src/main.cpp.o" "gcc" "service/CMakeFiles/runout.dir/src/main.cpp.o.d"
+  "/work/main/service/src/progress.cpp" "service/CMakeFiles/runout.dir/src/progress.cpp.o" "gcc" "service/CMakeFiles/runout.dir/src/progress.cpp.o.d"
+  )
+
+# Targets to which this target links.
+set(CMAKE_TARGET_LINKED_INFO_FILES
+  "/work/main/build/scenarios/CMakeFiles/runout_scenarios.dir/DependInfo.cmake"
+  "/work/main/build/engine/CMakeFiles/runout_engine.dir/DependInfo.cmake"
+  )
+
+# Fortran module output directory.
+set(CMAKE_Fortran_TARGET_MODULE_DIR "")

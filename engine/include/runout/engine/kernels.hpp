@@ -1,0 +1,85 @@
+#pragma once
+// Smoothing kernels (thesis eq. 2.6-2.7). Both have support radius 2h.
+// A kernel is a small value type with W(r) and grad_factor(r) such that grad_i W_ij = grad_factor(r) * r_ij.
+// The solver is templated on the kernel type, so the hot loop has no virtual call; a new kernel is a new
+// struct here plus one entry in `KernelList` and `kernel_names()`.
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include "runout/engine/types.hpp"
+
+namespace runout {
+
+template <int D>
+struct WendlandC2 {
+  static constexpr std::string_view name = "wendland";
+  real h, inv_h, alpha;
+  explicit WendlandC2(real smoothing_length) : h(smoothing_length), inv_h(1.0 / smoothing_length) {
+    alpha = (D == 2) ? 7.0 / (4.0 * kPi * h * h) : 21.0 / (16.0 * kPi * h * h * h);
+  }
+  real support() const { return 2.0 * h; }
+  real W(real r) const {
+    const real q = r * inv_h;
+    if (q >= 2.0) return 0.0;
+    const real t = 1.0 - 0.5 * q;
+    const real t2 = t * t;
+    return alpha * t2 * t2 * (2.0 * q + 1.0);
+  }
+  // dW/dr / r: W = a (1-q/2)^4 (2q+1); dW/dq = -5 a q (1-q/2)^3
+  real grad_factor(real r) const {
+    const real q = r * inv_h;
+    if (q >= 2.0) return 0.0;
+    const real t = 1.0 - 0.5 * q;
+    return -5.0 * alpha * t * t * t * inv_h * inv_h;
+  }
+};
+
+template <int D>
+struct CubicSpline {
+  static constexpr std::string_view name = "cubic";
+  real h, inv_h, alpha;
+  explicit CubicSpline(real smoothing_length) : h(smoothing_length), inv_h(1.0 / smoothing_length) {
+    alpha = (D == 2) ? 10.0 / (7.0 * kPi * h * h) : 1.0 / (kPi * h * h * h);
+  }
+  real support() const { return 2.0 * h; }
+  real W(real r) const {
+    const real q = r * inv_h;
+    if (q >= 2.0) return 0.0;
+    if (q < 1.0) return alpha * (1.0 - 1.5 * q * q + 0.75 * q * q * q);
+    const real t = 2.0 - q;
+    return alpha * 0.25 * t * t * t;
+  }
+  real grad_factor(real r) const {
+    const real q = r * inv_h;
+    if (q >= 2.0 || r <= 0.0) return 0.0;
+    real dWdq;
+    if (q < 1.0) {
+      dWdq = alpha * (-3.0 * q + 2.25 * q * q);
+    } else {
+      const real t = 2.0 - q;
+      dWdq = -0.75 * alpha * t * t;
+    }
+    return dWdq * inv_h / r;
+  }
+};
+
+enum class KernelKind { wendland, cubic };
+
+// Parses a kernel name ("wendland", "cubic"); throws std::invalid_argument naming the accepted values.
+KernelKind kernel_from_name(std::string_view name);
+std::string_view kernel_name(KernelKind kind);
+std::vector<std::string> kernel_names();
+
+// Calls f(kernel) with the concrete kernel type for `kind`: one switch per call, not per pair.
+template <int D, class F>
+decltype(auto) with_kernel(KernelKind kind, real smoothing_length, F&& f) {
+  switch (kind) {
+    case KernelKind::cubic: return f(CubicSpline<D>(smoothing_length));
+    case KernelKind::wendland: break;
+  }
+  return f(WendlandC2<D>(smoothing_length));
+}
+
+}  // namespace runout

@@ -1,0 +1,175 @@
+#pragma once
+// Weakly compressible SPH solver (thesis ch. 2 and eq. 4.1), 2D and 3D from one template.
+//
+// Data layout: structure of arrays, fluid and boundary particles in separate sets. Fluid particles are
+// re-sorted by cell every step; boundary particles never move and are sorted once. Work is done only in
+// cells holding fluid and in the boundary cells next to them, so boundary particles far from the flow cost
+// nothing per step.
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "runout/engine/geometry.hpp"
+#include "runout/engine/kernels.hpp"
+#include "runout/engine/rheology.hpp"
+#include "runout/engine/types.hpp"
+
+namespace runout {
+
+enum class Integrator { symplectic, verlet };
+enum class DensityDiffusion { none, molteni, fourtakas };
+
+struct SolverConfig {
+  real dp = 0.01;                   // initial particle spacing [m]
+  real smoothing_length = 0.013;    // h [m]
+  KernelKind kernel = KernelKind::wendland;
+  real speed_of_sound = 20.0;       // c0 [m/s], same for every material
+  real eos_gamma = 7.0;
+  real cfl = 0.2;
+  Integrator integrator = Integrator::symplectic;
+  int verlet_reset_steps = 40;      // Verlet: one Euler step every N steps (thesis eq. 2.24)
+  DensityDiffusion density_diffusion = DensityDiffusion::fourtakas;
+  real density_diffusion_delta = 0.1;
+  real artificial_viscosity = 0.0;  // Monaghan alpha; 0 switches the term off
+  // Effective-viscosity cap [Pa s]. <= 0 means "auto": viscosity_cap_factor times the viscosity at which
+  // the viscous time-step limit equals the acoustic one (0.125 h rho c0 / cfl).
+  real max_viscosity = 0.0;
+  real viscosity_cap_factor = 1.0;
+  real shear_rate_floor = 1e-6;     // [1/s]
+  real min_dt = 1e-8;               // a step below this stops the run [s]
+  std::array<real, 3> gravity{0.0, 0.0, -9.81};  // first D components are used
+  real boundary_density = 1000.0;   // reference density of boundary particles [kg/m^3]
+  // Domain: leaving through a closed face is a leak (error), through an open face an outflow (removed and
+  // counted). A periodic axis wraps; the vertical top is always open without removal.
+  std::array<real, 3> domain_min{-1e30, -1e30, -1e30};
+  std::array<real, 3> domain_max{1e30, 1e30, 1e30};
+  std::array<bool, 3> periodic{false, false, false};
+  std::array<std::array<bool, 2>, 3> outflow{};  // outflow[d][0] low face, [1] high face
+};
+
+// Particle storage: one vector per component (SoA).
+template <int D>
+struct ParticleArrays {
+  std::array<std::vector<real>, D> pos, vel;
+  std::vector<real> rho, mass;
+  std::vector<uint16_t> material;  // fluid: material index; boundary: unused (0)
+  std::vector<uint32_t> tag;       // structure tag (boundary) or source block (fluid)
+  std::vector<uint32_t> id;        // stable id, for error messages and outputs
+
+  size_t size() const { return rho.size(); }
+  void add(const Vec<D>& p, real density, real m, uint16_t mat, uint32_t tg);
+  Vec<D> position(size_t i) const {
+    Vec<D> p;
+    for (int d = 0; d < D; ++d) p[d] = pos[d][i];
+    return p;
+  }
+  Vec<D> velocity(size_t i) const {
+    Vec<D> v;
+    for (int d = 0; d < D; ++d) v[d] = vel[d][i];
+    return v;
+  }
+};
+
+// What a scene hands the solver.
+template <int D>
+struct SceneSetup {
+  static constexpr int kDim = D;
+  SolverConfig config;
+  std::vector<MaterialParams> materials;
+  ParticleArrays<D> fluid;
+  ParticleArrays<D> boundary;
+  std::vector<LeakRegion<D>> leak_regions;
+};
+
+struct StepStats {
+  real dt = 0, dt_force = 0, dt_acoustic = 0, dt_viscous = 0;
+  real max_speed = 0;
+  real max_effective_viscosity = 0;
+  size_t active_boundary = 0;  // boundary particles that did work this step
+};
+
+struct MassBalance {
+  std::vector<long double> initial, current, outflow;  // per material [kg]
+  long double total_initial() const;
+  long double total_current() const;
+  long double total_outflow() const;
+};
+
+struct EnergySummary {
+  real kinetic = 0;            // [J]
+  real potential_released = 0; // PE(0) - PE(t) over fluid, outflow included [J]
+};
+
+template <int D>
+class Solver {
+ public:
+  explicit Solver(SceneSetup<D> setup);
+  ~Solver();
+  Solver(const Solver&) = delete;
+  Solver& operator=(const Solver&) = delete;
+
+  // One time step; throws SimulationError on NaN/Inf, dt under the floor, or a leak.
+  const StepStats& step();
+
+  real time() const { return time_; }
+  long steps() const { return steps_; }
+  const SolverConfig& config() const { return config_; }
+  real max_viscosity() const { return max_viscosity_; }
+  const std::vector<MaterialParams>& materials() const { return materials_; }
+  const ParticleArrays<D>& fluid() const { return fluid_; }
+  const ParticleArrays<D>& boundary() const { return boundary_; }
+  const std::vector<real>& fluid_pressure() const { return pressure_; }
+  const std::vector<real>& fluid_effective_viscosity() const { return mu_eff_; }
+  const std::vector<real>& fluid_shear_rate() const { return shear_rate_; }
+  const std::vector<real>& boundary_pressure() const { return boundary_pressure_; }
+  const StepStats& last_step() const { return stats_; }
+
+  MassBalance mass_balance() const;
+  EnergySummary energy() const;
+  real max_mach() const { return max_mach_; }
+  real min_dt_seen() const { return min_dt_seen_; }
+
+  // Evaluates accelerations and density rates at the current state without advancing (tests, monitors).
+  void evaluate_rates();
+  const std::array<std::vector<real>, D>& fluid_acceleration() const { return acc_; }
+  const std::vector<real>& fluid_density_rate() const { return drho_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  SolverConfig config_;
+  std::vector<MaterialParams> materials_;
+  std::vector<std::unique_ptr<Rheology>> rheologies_;
+  ParticleArrays<D> fluid_, boundary_;
+  std::vector<LeakRegion<D>> leak_regions_;
+
+  // fluid per-particle work arrays
+  std::array<std::vector<real>, D> acc_;
+  std::vector<real> drho_, pressure_, mu_eff_, shear_rate_;
+  std::vector<std::array<real, D*(D + 1) / 2>> tau_;  // deviatoric stress, upper triangle row-major
+  std::array<std::vector<real>, D> pos_saved_, vel_saved_;
+  std::vector<real> rho_saved_;
+  // boundary work arrays
+  std::vector<real> boundary_drho_, boundary_pressure_, boundary_rho_saved_;
+
+  real time_ = 0;
+  long steps_ = 0;
+  real max_viscosity_ = 0;
+  real max_mach_ = 0;
+  real min_dt_seen_ = 1e300;
+  StepStats stats_;
+  MassBalance mass_;
+  real potential_initial_ = 0;
+  real potential_outflow_ = 0;  // PE(0) contribution of removed particles at their removal point
+
+  void sort_and_build_cells();
+  void evaluate(bool compute_dt);
+  void check_state();
+  real potential_energy() const;
+};
+
+extern template class Solver<2>;
+extern template class Solver<3>;
+
+}  // namespace runout

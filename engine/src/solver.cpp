@@ -1,0 +1,891 @@
+#include "runout/engine/solver.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numeric>
+#include <sstream>
+
+namespace runout {
+
+template <int D>
+void ParticleArrays<D>::add(const Vec<D>& p, real density, real m, uint16_t mat, uint32_t tg) {
+  for (int d = 0; d < D; ++d) {
+    pos[d].push_back(p[d]);
+    vel[d].push_back(0.0);
+  }
+  rho.push_back(density);
+  mass.push_back(m);
+  material.push_back(mat);
+  tag.push_back(tg);
+  id.push_back(static_cast<uint32_t>(id.size()));
+}
+
+long double MassBalance::total_initial() const { return std::accumulate(initial.begin(), initial.end(), 0.0L); }
+long double MassBalance::total_current() const { return std::accumulate(current.begin(), current.end(), 0.0L); }
+long double MassBalance::total_outflow() const { return std::accumulate(outflow.begin(), outflow.end(), 0.0L); }
+
+namespace {
+
+constexpr int kCellBits = 21;
+constexpr int64_t kCellBias = int64_t{1} << (kCellBits - 1);
+constexpr uint64_t kRemovedKey = std::numeric_limits<uint64_t>::max();
+
+template <int D>
+constexpr int pow3() {
+  return D == 2 ? 9 : 27;
+}
+
+template <int D>
+constexpr int kStressComponents = D * (D + 1) / 2;
+
+// Index of component (a, b) in the packed upper-triangle stress.
+template <int D>
+constexpr int sym_index(int a, int b) {
+  if (a > b) std::swap(a, b);
+  if constexpr (D == 2) {
+    return a == 0 ? b : 2;
+  } else {
+    return a == 0 ? b : (a == 1 ? 2 + b : 5);
+  }
+}
+
+std::string fmt_time(real t) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "t=%.6g s", t);
+  return buf;
+}
+
+}  // namespace
+
+// Cell grid and neighbour blocks. A block is a contiguous range of sorted particles in one neighbouring cell
+// plus the periodic image shift to apply to them.
+template <int D>
+struct Solver<D>::Impl {
+  struct Block {
+    uint32_t begin, end, shift;
+  };
+  static constexpr int kNb = pow3<D>();
+
+  Vec<D> origin, cell_size, inv_cell, period;
+  std::array<int64_t, D> periodic_cells{};  // 0 if the axis is not periodic
+  std::vector<Vec<D>> shifts;                // kNb entries, index sum (s_d + 1) 3^d
+
+  std::vector<uint64_t> fluid_key;  // per particle, sorted
+  std::vector<uint64_t> fcell_key;
+  std::vector<uint32_t> fcell_begin;  // size cells + 1
+  std::vector<Block> fnb_fluid, fnb_bound;  // stride kNb per fluid cell
+  std::vector<uint8_t> fnb_fluid_n, fnb_bound_n;
+
+  std::vector<uint64_t> bcell_key;
+  std::vector<uint32_t> bcell_begin;
+  std::vector<uint32_t> bcell_stamp;
+  uint32_t stamp = 0;
+  std::vector<uint32_t> active_bcells;
+  std::vector<Block> bnb_fluid;  // stride kNb per active boundary cell
+  std::vector<uint8_t> bnb_fluid_n;
+
+  std::vector<std::pair<uint64_t, uint32_t>> sort_buf;
+  std::vector<real> scratch_real;
+  std::vector<uint32_t> scratch_u32;
+  std::vector<uint16_t> scratch_u16;
+
+  std::array<int64_t, D> coords(const Vec<D>& p) const {
+    std::array<int64_t, D> c;
+    for (int d = 0; d < D; ++d) {
+      int64_t k = static_cast<int64_t>(std::floor((p[d] - origin[d]) * inv_cell[d]));
+      if (periodic_cells[d] > 0) {
+        k %= periodic_cells[d];
+        if (k < 0) k += periodic_cells[d];
+      }
+      c[d] = std::clamp<int64_t>(k, -kCellBias, kCellBias - 1);
+    }
+    return c;
+  }
+  static uint64_t pack(const std::array<int64_t, D>& c) {
+    uint64_t key = 0;
+    for (int d = 0; d < D; ++d) key |= static_cast<uint64_t>(c[d] + kCellBias) << (kCellBits * (D - 1 - d));
+    return key;
+  }
+  static std::array<int64_t, D> unpack(uint64_t key) {
+    std::array<int64_t, D> c;
+    const uint64_t mask = (uint64_t{1} << kCellBits) - 1;
+    for (int d = 0; d < D; ++d)
+      c[d] = static_cast<int64_t>((key >> (kCellBits * (D - 1 - d))) & mask) - kCellBias;
+    return c;
+  }
+  // Neighbour cell `o` (0..kNb-1) of cell c: its key and shift index; false if off a periodic grid edge.
+  uint64_t neighbour_key(const std::array<int64_t, D>& c, int o, uint32_t& shift) const {
+    std::array<int64_t, D> n;
+    int rem = o;
+    shift = 0;
+    int pw = 1;
+    for (int d = 0; d < D; ++d) {
+      const int off = rem % 3 - 1;
+      rem /= 3;
+      n[d] = c[d] + off;
+      int s = 0;
+      if (periodic_cells[d] > 0) {
+        if (n[d] >= periodic_cells[d]) {
+          n[d] -= periodic_cells[d];
+          s = 1;
+        } else if (n[d] < 0) {
+          n[d] += periodic_cells[d];
+          s = -1;
+        }
+      }
+      shift += static_cast<uint32_t>((s + 1) * pw);
+      pw *= 3;
+    }
+    return pack(n);
+  }
+  static int64_t find(const std::vector<uint64_t>& keys, uint64_t key) {
+    auto it = std::lower_bound(keys.begin(), keys.end(), key);
+    return (it != keys.end() && *it == key) ? (it - keys.begin()) : -1;
+  }
+};
+
+template <int D>
+Solver<D>::Solver(SceneSetup<D> setup)
+    : impl_(std::make_unique<Impl>()),
+      config_(setup.config),
+      materials_(std::move(setup.materials)),
+      fluid_(std::move(setup.fluid)),
+      boundary_(std::move(setup.boundary)),
+      leak_regions_(std::move(setup.leak_regions)) {
+  auto& I = *impl_;
+  for (const auto& m : materials_) rheologies_.push_back(make_rheology(m));
+
+  const real h = config_.smoothing_length;
+  const real support = 2.0 * h;
+  // Auto viscosity cap: the mu_eff at which the viscous limit 0.125 h^2 rho / mu equals cfl h / c0.
+  if (config_.max_viscosity > 0) {
+    max_viscosity_ = config_.max_viscosity;
+  } else {
+    real rho_min = 1e300;
+    for (const auto& m : materials_) rho_min = std::min(rho_min, m.density);
+    max_viscosity_ = config_.viscosity_cap_factor * 0.125 * h * rho_min * config_.speed_of_sound / config_.cfl;
+  }
+
+  // Grid: cells of the kernel support; a periodic axis gets a whole number (>= 3) of cells.
+  for (int d = 0; d < D; ++d) {
+    I.cell_size[d] = support;
+    I.origin[d] = 0.0;
+    I.period[d] = 0.0;
+    if (config_.periodic[d]) {
+      const real L = config_.domain_max[d] - config_.domain_min[d];
+      const int64_t n = static_cast<int64_t>(std::floor(L / support));
+      if (n < 3)
+        throw std::invalid_argument("domain: a periodic axis must be at least 3 kernel supports (6h) long");
+      I.periodic_cells[d] = n;
+      I.cell_size[d] = L / static_cast<real>(n);
+      I.origin[d] = config_.domain_min[d];
+      I.period[d] = L;
+    }
+    I.inv_cell[d] = 1.0 / I.cell_size[d];
+  }
+  // Non-periodic origin: the lower corner of all particles, so keys stay small.
+  for (int d = 0; d < D; ++d) {
+    if (config_.periodic[d]) continue;
+    real lo = 1e300;
+    for (real x : fluid_.pos[d]) lo = std::min(lo, x);
+    for (real x : boundary_.pos[d]) lo = std::min(lo, x);
+    I.origin[d] = (lo < 1e299 ? lo : 0.0) - support;
+  }
+  I.shifts.resize(Impl::kNb);
+  for (int o = 0; o < Impl::kNb; ++o) {
+    int rem = o;
+    Vec<D> s;
+    for (int d = 0; d < D; ++d) {
+      s[d] = (rem % 3 - 1) * I.period[d];
+      rem /= 3;
+    }
+    I.shifts[o] = s;
+  }
+
+  // Boundary particles never move: sort them by cell once.
+  {
+    const size_t nb = boundary_.size();
+    std::vector<std::pair<uint64_t, uint32_t>> order(nb);
+    for (size_t i = 0; i < nb; ++i) order[i] = {Impl::pack(I.coords(boundary_.position(i))), uint32_t(i)};
+    std::sort(order.begin(), order.end());
+    ParticleArrays<D> sorted;
+    for (auto& [key, i] : order) {
+      sorted.add(boundary_.position(i), boundary_.rho[i], boundary_.mass[i], boundary_.material[i],
+                 boundary_.tag[i]);
+      sorted.id.back() = boundary_.id[i];
+      if (I.bcell_key.empty() || I.bcell_key.back() != key) {
+        I.bcell_key.push_back(key);
+        I.bcell_begin.push_back(static_cast<uint32_t>(sorted.size() - 1));
+      }
+    }
+    I.bcell_begin.push_back(static_cast<uint32_t>(nb));
+    boundary_ = std::move(sorted);
+    I.bcell_stamp.assign(I.bcell_key.size(), 0);
+  }
+  boundary_drho_.assign(boundary_.size(), 0.0);
+  boundary_pressure_.assign(boundary_.size(), 0.0);
+  boundary_rho_saved_ = boundary_.rho;
+
+  mass_.initial.assign(materials_.size(), 0.0L);
+  mass_.outflow.assign(materials_.size(), 0.0L);
+  for (size_t i = 0; i < fluid_.size(); ++i) mass_.initial[fluid_.material[i]] += fluid_.mass[i];
+  potential_initial_ = potential_energy();
+  // Verlet keeps the previous step's velocity and density in the saved arrays.
+  for (int d = 0; d < D; ++d) {
+    pos_saved_[d] = fluid_.pos[d];
+    vel_saved_[d] = fluid_.vel[d];
+  }
+  rho_saved_ = fluid_.rho;
+}
+
+template <int D>
+Solver<D>::~Solver() = default;
+
+template <int D>
+real Solver<D>::potential_energy() const {
+  long double pe = 0;
+  for (size_t i = 0; i < fluid_.size(); ++i) {
+    real gx = 0;
+    for (int d = 0; d < D; ++d) gx += config_.gravity[d] * fluid_.pos[d][i];
+    pe -= fluid_.mass[i] * gx;
+  }
+  return static_cast<real>(pe);
+}
+
+template <int D>
+MassBalance Solver<D>::mass_balance() const {
+  MassBalance m = mass_;
+  m.current.assign(materials_.size(), 0.0L);
+  for (size_t i = 0; i < fluid_.size(); ++i) m.current[fluid_.material[i]] += fluid_.mass[i];
+  return m;
+}
+
+template <int D>
+EnergySummary Solver<D>::energy() const {
+  EnergySummary e;
+  long double ke = 0;
+  for (size_t i = 0; i < fluid_.size(); ++i) {
+    real v2 = 0;
+    for (int d = 0; d < D; ++d) v2 += fluid_.vel[d][i] * fluid_.vel[d][i];
+    ke += 0.5 * fluid_.mass[i] * v2;
+  }
+  e.kinetic = static_cast<real>(ke);
+  e.potential_released = potential_initial_ - (potential_energy() + potential_outflow_);
+  return e;
+}
+
+// Sorts fluid particles by cell, removes outflow, and builds the neighbour blocks of every fluid cell and
+// of the boundary cells next to fluid.
+template <int D>
+void Solver<D>::sort_and_build_cells() {
+  auto& I = *impl_;
+  const size_t n = fluid_.size();
+  I.sort_buf.resize(n);
+  size_t removed = 0;
+#pragma omp parallel for reduction(+ : removed)
+  for (size_t i = 0; i < n; ++i) {
+    Vec<D> p = fluid_.position(i);
+    bool out = false;
+    for (int d = 0; d < D; ++d) {
+      if (config_.periodic[d]) {
+        const real L = I.period[d];
+        real x = p[d] - config_.domain_min[d];
+        if (x < 0 || x >= L) {
+          x -= std::floor(x / L) * L;
+          if (x >= L) x = 0;
+          p[d] = config_.domain_min[d] + x;
+          fluid_.pos[d][i] = p[d];
+          if (config_.integrator == Integrator::verlet) pos_saved_[d][i] = p[d];
+        }
+      } else if ((p[d] < config_.domain_min[d] && config_.outflow[d][0]) ||
+                 (p[d] > config_.domain_max[d] && config_.outflow[d][1])) {
+        out = true;
+      }
+    }
+    I.sort_buf[i] = {out ? kRemovedKey : Impl::pack(I.coords(p)), static_cast<uint32_t>(i)};
+    removed += out ? 1 : 0;
+  }
+  std::sort(I.sort_buf.begin(), I.sort_buf.end());
+  const size_t keep = n - removed;
+  if (removed > 0) {
+    for (size_t k = keep; k < n; ++k) {
+      const uint32_t i = I.sort_buf[k].second;
+      mass_.outflow[fluid_.material[i]] += fluid_.mass[i];
+      real gx = 0;
+      for (int d = 0; d < D; ++d) gx += config_.gravity[d] * fluid_.pos[d][i];
+      potential_outflow_ -= fluid_.mass[i] * gx;
+    }
+  }
+
+  // Apply the permutation (and truncation) to every per-particle array that carries state.
+  auto permute_real = [&](std::vector<real>& v) {
+    I.scratch_real.resize(keep);
+#pragma omp parallel for
+    for (size_t k = 0; k < keep; ++k) I.scratch_real[k] = v[I.sort_buf[k].second];
+    v.swap(I.scratch_real);
+  };
+  for (int d = 0; d < D; ++d) {
+    permute_real(fluid_.pos[d]);
+    permute_real(fluid_.vel[d]);
+    if (config_.integrator == Integrator::verlet) {
+      permute_real(pos_saved_[d]);
+      permute_real(vel_saved_[d]);
+    }
+  }
+  permute_real(fluid_.rho);
+  permute_real(fluid_.mass);
+  if (config_.integrator == Integrator::verlet) permute_real(rho_saved_);
+  {
+    I.scratch_u16.resize(keep);
+    for (size_t k = 0; k < keep; ++k) I.scratch_u16[k] = fluid_.material[I.sort_buf[k].second];
+    fluid_.material.swap(I.scratch_u16);
+    I.scratch_u32.resize(keep);
+    for (size_t k = 0; k < keep; ++k) I.scratch_u32[k] = fluid_.tag[I.sort_buf[k].second];
+    fluid_.tag.swap(I.scratch_u32);
+    I.scratch_u32.resize(keep);
+    for (size_t k = 0; k < keep; ++k) I.scratch_u32[k] = fluid_.id[I.sort_buf[k].second];
+    fluid_.id.swap(I.scratch_u32);
+  }
+
+  // Fluid cells.
+  I.fcell_key.clear();
+  I.fcell_begin.clear();
+  for (size_t k = 0; k < keep; ++k) {
+    const uint64_t key = I.sort_buf[k].first;
+    if (I.fcell_key.empty() || I.fcell_key.back() != key) {
+      I.fcell_key.push_back(key);
+      I.fcell_begin.push_back(static_cast<uint32_t>(k));
+    }
+  }
+  I.fcell_begin.push_back(static_cast<uint32_t>(keep));
+  const size_t ncells = I.fcell_key.size();
+  constexpr int kNb = Impl::kNb;
+  I.fnb_fluid.resize(ncells * kNb);
+  I.fnb_bound.resize(ncells * kNb);
+  I.fnb_fluid_n.assign(ncells, 0);
+  I.fnb_bound_n.assign(ncells, 0);
+#pragma omp parallel for schedule(static)
+  for (size_t c = 0; c < ncells; ++c) {
+    const auto cc = Impl::unpack(I.fcell_key[c]);
+    int nf = 0, nbnd = 0;
+    for (int o = 0; o < kNb; ++o) {
+      uint32_t shift;
+      const uint64_t key = I.neighbour_key(cc, o, shift);
+      const int64_t f = Impl::find(I.fcell_key, key);
+      if (f >= 0) I.fnb_fluid[c * kNb + nf++] = {I.fcell_begin[f], I.fcell_begin[f + 1], shift};
+      const int64_t b = Impl::find(I.bcell_key, key);
+      if (b >= 0) I.fnb_bound[c * kNb + nbnd++] = {I.bcell_begin[b], I.bcell_begin[b + 1], shift};
+    }
+    I.fnb_fluid_n[c] = static_cast<uint8_t>(nf);
+    I.fnb_bound_n[c] = static_cast<uint8_t>(nbnd);
+  }
+
+  // Boundary cells adjacent to fluid: the only boundary particles that do work this step.
+  ++I.stamp;
+  I.active_bcells.clear();
+  for (size_t c = 0; c < ncells; ++c) {
+    const auto cc = Impl::unpack(I.fcell_key[c]);
+    for (int o = 0; o < kNb; ++o) {
+      uint32_t shift;
+      const int64_t b = Impl::find(I.bcell_key, I.neighbour_key(cc, o, shift));
+      if (b >= 0 && I.bcell_stamp[b] != I.stamp) {
+        I.bcell_stamp[b] = I.stamp;
+        I.active_bcells.push_back(static_cast<uint32_t>(b));
+      }
+    }
+  }
+  const size_t nact = I.active_bcells.size();
+  I.bnb_fluid.resize(nact * kNb);
+  I.bnb_fluid_n.assign(nact, 0);
+#pragma omp parallel for schedule(static)
+  for (size_t a = 0; a < nact; ++a) {
+    const auto cc = Impl::unpack(I.bcell_key[I.active_bcells[a]]);
+    int nf = 0;
+    for (int o = 0; o < kNb; ++o) {
+      uint32_t shift;
+      const int64_t f = Impl::find(I.fcell_key, I.neighbour_key(cc, o, shift));
+      if (f >= 0) I.bnb_fluid[a * kNb + nf++] = {I.fcell_begin[f], I.fcell_begin[f + 1], shift};
+    }
+    I.bnb_fluid_n[a] = static_cast<uint8_t>(nf);
+  }
+
+  // Work arrays follow the (possibly smaller) particle count.
+  for (int d = 0; d < D; ++d) acc_[d].resize(keep);
+  drho_.resize(keep);
+  pressure_.resize(keep);
+  mu_eff_.resize(keep);
+  shear_rate_.resize(keep);
+  tau_.resize(keep);
+}
+
+// The interaction kernels. Templated on the kernel and on whether the stress term exists, so the pair
+// loops carry no runtime model switches.
+namespace detail {
+
+template <int D>
+struct PairContext {
+  real h, support2, eta2, c0, alpha, ddt_coef;  // ddt_coef = 2 delta h c0 (0: off)
+  bool fourtakas;
+  Vec<D> g;
+  real inv_c0_sq;
+};
+
+}  // namespace detail
+
+template <int D>
+void Solver<D>::evaluate(bool compute_dt) {
+  auto& I = *impl_;
+  constexpr int kNb = Impl::kNb;
+  constexpr int NT = kStressComponents<D>;
+  const size_t n = fluid_.size();
+  const size_t ncells = I.fcell_key.size();
+  const real h = config_.smoothing_length;
+  const real c0 = config_.speed_of_sound;
+  const real gam = config_.eos_gamma;
+  const real eta2 = 0.01 * h * h;
+  const real alpha = config_.artificial_viscosity;
+  const bool ddt_on = config_.density_diffusion != DensityDiffusion::none && config_.density_diffusion_delta > 0;
+  const real ddt_coef = ddt_on ? 2.0 * config_.density_diffusion_delta * h * c0 : 0.0;
+  const bool fourtakas = config_.density_diffusion == DensityDiffusion::fourtakas;
+  Vec<D> g;
+  for (int d = 0; d < D; ++d) g[d] = config_.gravity[d];
+  const real inv_c0_sq = 1.0 / (c0 * c0);
+
+  bool viscous = false;
+  for (const auto& r : rheologies_) viscous = viscous || !r->is_inviscid();
+
+  // Equation of state (Tait), per material for fluid; boundary particles use the boundary density.
+  std::vector<real> B(materials_.size()), rho0(materials_.size());
+  for (size_t k = 0; k < materials_.size(); ++k) {
+    rho0[k] = materials_[k].density;
+    B[k] = c0 * c0 * rho0[k] / gam;
+  }
+  const bool gamma7 = gam == 7.0;
+  auto tait = [gamma7, gam](real rho, real r0, real b) {
+    const real x = rho / r0;
+    real xg;
+    if (gamma7) {
+      const real x2 = x * x;
+      xg = x2 * x2 * x2 * x;
+    } else {
+      xg = std::pow(x, gam);
+    }
+    return b * (xg - 1.0);
+  };
+#pragma omp parallel for schedule(static)
+  for (size_t i = 0; i < n; ++i) {
+    const int k = fluid_.material[i];
+    pressure_[i] = tait(fluid_.rho[i], rho0[k], B[k]);
+  }
+  const real rho0_b = config_.boundary_density;
+  const real B_b = c0 * c0 * rho0_b / gam;
+  const size_t nact = I.active_bcells.size();
+#pragma omp parallel for schedule(static)
+  for (size_t a = 0; a < nact; ++a) {
+    const uint32_t cb = I.active_bcells[a];
+    for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b)
+      boundary_pressure_[b] = tait(boundary_.rho[b], rho0_b, B_b);
+  }
+
+  real max_acc = 0, max_visc_term = 0, max_nu = 0;
+
+  with_kernel<D>(config_.kernel, h, [&](auto kernel) {
+    const real support2 = kernel.support() * kernel.support();
+    const auto& P = fluid_.pos;
+    const auto& V = fluid_.vel;
+    const auto& BP = boundary_.pos;
+
+    // Pass 1: continuity with density diffusion, and (viscous scenes) the velocity gradient.
+#pragma omp parallel for schedule(dynamic, 8)
+    for (size_t c = 0; c < ncells; ++c) {
+      for (uint32_t i = I.fcell_begin[c]; i < I.fcell_begin[c + 1]; ++i) {
+        Vec<D> xi, vi;
+        for (int d = 0; d < D; ++d) {
+          xi[d] = P[d][i];
+          vi[d] = V[d][i];
+        }
+        const real rhoi = fluid_.rho[i];
+        const int mi = fluid_.material[i];
+        real div = 0, diff = 0;
+        Mat<D> L = Mat<D>::Zero();
+        for (int k = 0; k < I.fnb_fluid_n[c]; ++k) {
+          const auto& blk = I.fnb_fluid[c * kNb + k];
+          const Vec<D> xs = xi - I.shifts[blk.shift];
+          for (uint32_t j = blk.begin; j < blk.end; ++j) {
+            Vec<D> dx;
+            real r2 = 0;
+            for (int d = 0; d < D; ++d) {
+              dx[d] = xs[d] - P[d][j];
+              r2 += dx[d] * dx[d];
+            }
+            if (r2 >= support2 || r2 < 1e-24) continue;
+            const real F = kernel.grad_factor(std::sqrt(r2));
+            const real Vj = fluid_.mass[j] / fluid_.rho[j];
+            Vec<D> vij;
+            real vdotdx = 0;
+            for (int d = 0; d < D; ++d) {
+              vij[d] = vi[d] - V[d][j];
+              vdotdx += vij[d] * dx[d];
+            }
+            div += Vj * F * vdotdx;
+            if (ddt_coef > 0 && fluid_.material[j] == mi) {
+              real drho = fluid_.rho[j] - rhoi;
+              // Fourtakas et al. (2019): subtract the hydrostatic density difference, linearised:
+              // rho0 g.(x_j - x_i) / c0^2 (exact to O((g h / c0^2)^2)).
+              if (fourtakas) drho -= rho0[mi] * (-g.dot(dx)) * inv_c0_sq;
+              diff -= drho * F * Vj;
+            }
+            if (viscous) L.noalias() -= (Vj * F) * vij * dx.transpose();
+          }
+        }
+        for (int k = 0; k < I.fnb_bound_n[c]; ++k) {
+          const auto& blk = I.fnb_bound[c * kNb + k];
+          const Vec<D> xs = xi - I.shifts[blk.shift];
+          for (uint32_t j = blk.begin; j < blk.end; ++j) {
+            Vec<D> dx;
+            real r2 = 0;
+            for (int d = 0; d < D; ++d) {
+              dx[d] = xs[d] - BP[d][j];
+              r2 += dx[d] * dx[d];
+            }
+            if (r2 >= support2 || r2 < 1e-24) continue;
+            const real F = kernel.grad_factor(std::sqrt(r2));
+            const real Vj = boundary_.mass[j] / boundary_.rho[j];
+            div += Vj * F * vi.dot(dx);
+            if (viscous) L.noalias() -= (Vj * F) * vi * dx.transpose();
+          }
+        }
+        drho_[i] = rhoi * div + ddt_coef * diff;
+        if (viscous) {
+          // Strain rate D = sym(L); deviator with the 3D trace (plane strain in 2D).
+          const Mat<D> Ds = 0.5 * (L + L.transpose());
+          const real tr3 = Ds.trace() / 3.0;
+          Mat<D> Dd = Ds;
+          for (int d = 0; d < D; ++d) Dd(d, d) -= tr3;
+          real dd = Dd.squaredNorm();
+          if constexpr (D == 2) dd += tr3 * tr3;  // the zz component of the plane-strain deviator
+          shear_rate_[i] = std::max(std::sqrt(2.0 * dd), config_.shear_rate_floor);
+          auto& t = tau_[i];
+          for (int a = 0; a < D; ++a)
+            for (int b = a; b < D; ++b) t[sym_index<D>(a, b)] = Dd(a, b);  // scaled by 2 mu_eff below
+        }
+      }
+    }
+
+    // Rheology: one call per material batch.
+    if (viscous) {
+      if (materials_.size() == 1) {
+        rheologies_[0]->effective_viscosity(shear_rate_, pressure_, mu_eff_);
+      } else {
+        for (size_t k = 0; k < materials_.size(); ++k) {
+          std::vector<uint32_t> idx;
+          for (size_t i = 0; i < n; ++i)
+            if (fluid_.material[i] == k) idx.push_back(static_cast<uint32_t>(i));
+          std::vector<real> gd(idx.size()), p(idx.size()), mu(idx.size());
+          for (size_t q = 0; q < idx.size(); ++q) {
+            gd[q] = shear_rate_[idx[q]];
+            p[q] = pressure_[idx[q]];
+          }
+          rheologies_[k]->effective_viscosity(gd, p, mu);
+          for (size_t q = 0; q < idx.size(); ++q) mu_eff_[idx[q]] = mu[q];
+        }
+      }
+      const real cap = max_viscosity_;
+#pragma omp parallel for schedule(static) reduction(max : max_nu)
+      for (size_t i = 0; i < n; ++i) {
+        const real mu = std::min(mu_eff_[i], cap);
+        mu_eff_[i] = mu;
+        for (int q = 0; q < NT; ++q) tau_[i][q] *= 2.0 * mu;
+        max_nu = std::max(max_nu, mu / fluid_.rho[i]);
+      }
+    }
+
+    // Pass 2: momentum (pressure, artificial viscosity, rheology stress, gravity).
+#pragma omp parallel for schedule(dynamic, 8) reduction(max : max_acc, max_visc_term)
+    for (size_t c = 0; c < ncells; ++c) {
+      for (uint32_t i = I.fcell_begin[c]; i < I.fcell_begin[c + 1]; ++i) {
+        Vec<D> xi, vi;
+        for (int d = 0; d < D; ++d) {
+          xi[d] = P[d][i];
+          vi[d] = V[d][i];
+        }
+        const real rhoi = fluid_.rho[i];
+        const real pi_term = pressure_[i] / (rhoi * rhoi);
+        std::array<real, NT> ti{};
+        if (viscous)
+          for (int q = 0; q < NT; ++q) ti[q] = tau_[i][q] / (rhoi * rhoi);
+        Vec<D> a = Vec<D>::Zero();
+        real visc_max = 0;
+        auto add_pair = [&](const Vec<D>& dx, real r2, const Vec<D>& vij, real mj, real rhoj, real pj,
+                            const std::array<real, NT>* tj) {
+          const real F = kernel.grad_factor(std::sqrt(r2));
+          real pterm = pi_term + pj / (rhoj * rhoj);
+          const real vdotdx = vij.dot(dx);
+          const real mu_ij = h * vdotdx / (r2 + eta2);
+          visc_max = std::max(visc_max, std::abs(mu_ij));
+          if (alpha > 0 && vdotdx < 0) pterm += -alpha * c0 * mu_ij / (0.5 * (rhoi + rhoj));
+          a -= (mj * pterm * F) * dx;
+          if (viscous) {
+            // (tau_i/rho_i^2 + tau_j/rho_j^2) . grad W, grad W = F dx
+            for (int p = 0; p < D; ++p) {
+              real s = 0;
+              for (int q = 0; q < D; ++q) {
+                const int k = sym_index<D>(p, q);
+                s += (ti[k] + (*tj)[k] / (rhoj * rhoj)) * dx[q];
+              }
+              a[p] += mj * F * s;
+            }
+          }
+        };
+        for (int k = 0; k < I.fnb_fluid_n[c]; ++k) {
+          const auto& blk = I.fnb_fluid[c * kNb + k];
+          const Vec<D> xs = xi - I.shifts[blk.shift];
+          for (uint32_t j = blk.begin; j < blk.end; ++j) {
+            Vec<D> dx;
+            real r2 = 0;
+            for (int d = 0; d < D; ++d) {
+              dx[d] = xs[d] - P[d][j];
+              r2 += dx[d] * dx[d];
+            }
+            if (r2 >= support2 || r2 < 1e-24) continue;
+            Vec<D> vij;
+            for (int d = 0; d < D; ++d) vij[d] = vi[d] - V[d][j];
+            add_pair(dx, r2, vij, fluid_.mass[j], fluid_.rho[j], pressure_[j], viscous ? &tau_[j] : nullptr);
+          }
+        }
+        // Boundary neighbours: no-slip (v_b = 0), DBC pressure; the wall's stress mirrors the fluid's
+        // (tau_b = tau_i), so wall shear comes from the velocity gradient measured against v_b = 0.
+        std::array<real, NT> tb{};
+        if (viscous) tb = tau_[i];
+        for (int k = 0; k < I.fnb_bound_n[c]; ++k) {
+          const auto& blk = I.fnb_bound[c * kNb + k];
+          const Vec<D> xs = xi - I.shifts[blk.shift];
+          for (uint32_t j = blk.begin; j < blk.end; ++j) {
+            Vec<D> dx;
+            real r2 = 0;
+            for (int d = 0; d < D; ++d) {
+              dx[d] = xs[d] - BP[d][j];
+              r2 += dx[d] * dx[d];
+            }
+            if (r2 >= support2 || r2 < 1e-24) continue;
+            add_pair(dx, r2, vi, boundary_.mass[j], boundary_.rho[j], boundary_pressure_[j], &tb);
+          }
+        }
+        a += g;
+        for (int d = 0; d < D; ++d) acc_[d][i] = a[d];
+        max_acc = std::max(max_acc, a.norm());
+        max_visc_term = std::max(max_visc_term, visc_max);
+      }
+    }
+
+    // Boundary particles next to fluid: DBC continuity, dρ_b/dt = ρ_b Σ V_j (0 - v_j)·∇W.
+#pragma omp parallel for schedule(dynamic, 8)
+    for (size_t a = 0; a < nact; ++a) {
+      const uint32_t cb = I.active_bcells[a];
+      for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b) {
+        Vec<D> xb;
+        for (int d = 0; d < D; ++d) xb[d] = BP[d][b];
+        real div = 0;
+        for (int k = 0; k < I.bnb_fluid_n[a]; ++k) {
+          const auto& blk = I.bnb_fluid[a * kNb + k];
+          const Vec<D> xs = xb - I.shifts[blk.shift];
+          for (uint32_t j = blk.begin; j < blk.end; ++j) {
+            Vec<D> dx;
+            real r2 = 0, vdotdx = 0;
+            for (int d = 0; d < D; ++d) {
+              dx[d] = xs[d] - P[d][j];
+              r2 += dx[d] * dx[d];
+            }
+            if (r2 >= support2 || r2 < 1e-24) continue;
+            for (int d = 0; d < D; ++d) vdotdx -= V[d][j] * dx[d];
+            div += fluid_.mass[j] / fluid_.rho[j] * kernel.grad_factor(std::sqrt(r2)) * vdotdx;
+          }
+        }
+        boundary_drho_[b] = boundary_.rho[b] * div;
+      }
+    }
+  });
+
+  stats_.active_boundary = 0;
+  for (uint32_t cb : I.active_bcells) stats_.active_boundary += I.bcell_begin[cb + 1] - I.bcell_begin[cb];
+
+  if (compute_dt) {
+    // Monaghan & Kos (1999), thesis eq. 2.27, plus the viscous limit with the capped mu_eff.
+    stats_.dt_force = max_acc > 0 ? std::sqrt(h / max_acc) : 1e300;
+    stats_.dt_acoustic = h / (c0 + max_visc_term);
+    stats_.dt_viscous = max_nu > 0 ? 0.125 * h * h / max_nu : 1e300;
+    stats_.dt = std::min(config_.cfl * std::min(stats_.dt_force, stats_.dt_acoustic), stats_.dt_viscous);
+    stats_.max_effective_viscosity = 0;
+    if (viscous)
+      for (size_t i = 0; i < n; ++i) stats_.max_effective_viscosity = std::max(stats_.max_effective_viscosity, mu_eff_[i]);
+    if (!(stats_.dt >= config_.min_dt)) {
+      std::ostringstream s;
+      s << fmt_time(time_) << ": time step " << stats_.dt << " s fell below the floor " << config_.min_dt
+        << " s (force limit " << stats_.dt_force << " s, acoustic " << stats_.dt_acoustic << " s, viscous "
+        << stats_.dt_viscous << " s)";
+      throw SimulationError(s.str());
+    }
+  }
+}
+
+template <int D>
+void Solver<D>::evaluate_rates() {
+  sort_and_build_cells();
+  evaluate(false);
+}
+
+template <int D>
+const StepStats& Solver<D>::step() {
+  auto& I = *impl_;
+  sort_and_build_cells();
+  evaluate(true);
+  const real dt = stats_.dt;
+  const size_t n = fluid_.size();
+  const real rho0_b = config_.boundary_density;
+  auto for_active_boundary = [&](auto&& f) {
+#pragma omp parallel for schedule(static)
+    for (size_t a = 0; a < I.active_bcells.size(); ++a) {
+      const uint32_t cb = I.active_bcells[a];
+      for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b) f(b);
+    }
+  };
+
+  if (config_.integrator == Integrator::symplectic) {
+    // Predictor (thesis eq. 2.25).
+    const real hdt = 0.5 * dt;
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; ++i) {
+      for (int d = 0; d < D; ++d) {
+        pos_saved_[d][i] = fluid_.pos[d][i];
+        vel_saved_[d][i] = fluid_.vel[d][i];
+        fluid_.pos[d][i] += hdt * fluid_.vel[d][i];
+        fluid_.vel[d][i] += hdt * acc_[d][i];
+      }
+      rho_saved_[i] = fluid_.rho[i];
+      fluid_.rho[i] += hdt * drho_[i];
+    }
+    for_active_boundary([&](uint32_t b) {
+      boundary_rho_saved_[b] = boundary_.rho[b];
+      boundary_.rho[b] = std::max(rho0_b, boundary_.rho[b] + hdt * boundary_drho_[b]);
+    });
+    evaluate(false);
+    // Corrector (thesis eq. 2.26).
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; ++i) {
+      for (int d = 0; d < D; ++d) {
+        const real v_new = vel_saved_[d][i] + dt * acc_[d][i];
+        fluid_.pos[d][i] = pos_saved_[d][i] + dt * 0.5 * (v_new + vel_saved_[d][i]);
+        fluid_.vel[d][i] = v_new;
+      }
+      const real eps = -drho_[i] / fluid_.rho[i] * dt;
+      fluid_.rho[i] = rho_saved_[i] * (2.0 - eps) / (2.0 + eps);
+    }
+    for_active_boundary([&](uint32_t b) {
+      const real eps = -boundary_drho_[b] / boundary_.rho[b] * dt;
+      boundary_.rho[b] = std::max(rho0_b, boundary_rho_saved_[b] * (2.0 - eps) / (2.0 + eps));
+    });
+  } else {
+    // Verlet (thesis eq. 2.23-2.24): the saved arrays hold the values at n-1.
+    const bool euler = config_.verlet_reset_steps > 0 && (steps_ + 1) % config_.verlet_reset_steps == 0;
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; ++i) {
+      for (int d = 0; d < D; ++d) {
+        const real v = fluid_.vel[d][i];
+        const real v_new = euler ? v + dt * acc_[d][i] : vel_saved_[d][i] + 2.0 * dt * acc_[d][i];
+        fluid_.pos[d][i] += dt * v + 0.5 * dt * dt * acc_[d][i];
+        vel_saved_[d][i] = v;
+        fluid_.vel[d][i] = v_new;
+      }
+      const real r = fluid_.rho[i];
+      fluid_.rho[i] = euler ? r + dt * drho_[i] : rho_saved_[i] + 2.0 * dt * drho_[i];
+      rho_saved_[i] = r;
+    }
+    for_active_boundary([&](uint32_t b) {
+      const real r = boundary_.rho[b];
+      boundary_.rho[b] =
+          std::max(rho0_b, euler ? r + dt * boundary_drho_[b] : boundary_rho_saved_[b] + 2.0 * dt * boundary_drho_[b]);
+      boundary_rho_saved_[b] = r;
+    });
+  }
+
+  time_ += dt;
+  ++steps_;
+  min_dt_seen_ = std::min(min_dt_seen_, dt);
+  check_state();
+  return stats_;
+}
+
+// Guards: non-finite values, leaks through walls or closed domain faces. Also tracks the Mach number.
+template <int D>
+void Solver<D>::check_state() {
+  const size_t n = fluid_.size();
+  long bad = std::numeric_limits<long>::max();
+  real vmax2 = 0;
+#pragma omp parallel for reduction(min : bad) reduction(max : vmax2)
+  for (size_t i = 0; i < n; ++i) {
+    bool ok = std::isfinite(fluid_.rho[i]);
+    real v2 = 0;
+    for (int d = 0; d < D; ++d) {
+      ok = ok && std::isfinite(fluid_.pos[d][i]) && std::isfinite(fluid_.vel[d][i]);
+      v2 += fluid_.vel[d][i] * fluid_.vel[d][i];
+    }
+    if (!ok) bad = std::min(bad, static_cast<long>(i));
+    vmax2 = std::max(vmax2, v2);
+  }
+  if (bad != std::numeric_limits<long>::max()) {
+    const size_t i = static_cast<size_t>(bad);
+    std::string what = !std::isfinite(fluid_.rho[i]) ? "density" : "velocity";
+    for (int d = 0; d < D; ++d)
+      if (!std::isfinite(fluid_.pos[d][i])) what = "position";
+    std::ostringstream s;
+    s << fmt_time(time_) << ": fluid particle " << fluid_.id[i] << " has a non-finite " << what << " (step "
+      << steps_ << ", dt " << stats_.dt << " s)";
+    throw SimulationError(s.str());
+  }
+  stats_.max_speed = std::sqrt(vmax2);
+  max_mach_ = std::max(max_mach_, stats_.max_speed / config_.speed_of_sound);
+
+  long leak = std::numeric_limits<long>::max();
+  int leak_region = -1;
+#pragma omp parallel for reduction(min : leak)
+  for (size_t i = 0; i < n; ++i) {
+    const Vec<D> p = fluid_.position(i);
+    for (int d = 0; d < D; ++d) {
+      if (config_.periodic[d] || d == D - 1) continue;  // the vertical top is open; the bottom is a wall
+      if ((p[d] < config_.domain_min[d] && !config_.outflow[d][0]) ||
+          (p[d] > config_.domain_max[d] && !config_.outflow[d][1]))
+        leak = std::min(leak, static_cast<long>(i));
+    }
+    if (!config_.periodic[D - 1] && p[D - 1] < config_.domain_min[D - 1] && !config_.outflow[D - 1][0])
+      leak = std::min(leak, static_cast<long>(i));
+    for (const auto& r : leak_regions_)
+      if (r.contains(p)) leak = std::min(leak, static_cast<long>(i));
+  }
+  if (leak != std::numeric_limits<long>::max()) {
+    const size_t i = static_cast<size_t>(leak);
+    const Vec<D> p = fluid_.position(i);
+    for (size_t k = 0; k < leak_regions_.size(); ++k)
+      if (leak_regions_[k].contains(p)) leak_region = static_cast<int>(k);
+    std::ostringstream s;
+    s << fmt_time(time_) << ": fluid particle " << fluid_.id[i] << " leaked through ";
+    if (leak_region >= 0)
+      s << "boundary tag " << leak_regions_[leak_region].tag;
+    else
+      s << "a closed domain face";
+    s << " at position (";
+    for (int d = 0; d < D; ++d) s << (d ? ", " : "") << p[d];
+    s << ") m";
+    throw SimulationError(s.str());
+  }
+}
+
+template struct ParticleArrays<2>;
+template struct ParticleArrays<3>;
+template class Solver<2>;
+template class Solver<3>;
+
+}  // namespace runout

@@ -1,0 +1,488 @@
+#include "runout/scenarios/scene.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+namespace runout {
+namespace {
+
+using json = nlohmann::json;
+
+std::string fmt(real v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+// Reads fields of one JSON object, refusing unknown keys and out-of-range values with the field's path.
+class Fields {
+ public:
+  Fields(const json& j, std::string path, std::set<std::string> allowed) : j_(j), path_(std::move(path)) {
+    if (!j_.is_object()) throw SceneError(path_.empty() ? "(root)" : path_, "must be a JSON object");
+    for (auto it = j_.begin(); it != j_.end(); ++it) {
+      if (!allowed.count(it.key())) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        throw SceneError(at(it.key()), "unknown field (accepted: " + list + ")");
+      }
+    }
+  }
+  std::string at(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+  bool has(const std::string& key) const { return j_.contains(key) && !j_.at(key).is_null(); }
+  const json& raw(const std::string& key) const {
+    if (!has(key)) throw SceneError(at(key), "missing (required)");
+    return j_.at(key);
+  }
+
+  // A finite number in [lo, hi] (open ends when the *_open flags are set).
+  real number(const std::string& key, real lo, real hi, bool lo_open = false, bool hi_open = false) const {
+    const json& v = raw(key);
+    return check_number(v, at(key), lo, hi, lo_open, hi_open);
+  }
+  real number_or(const std::string& key, real fallback, real lo, real hi, bool lo_open = false,
+                 bool hi_open = false) const {
+    return has(key) ? number(key, lo, hi, lo_open, hi_open) : fallback;
+  }
+  long integer(const std::string& key, long fallback, long lo, long hi) const {
+    if (!has(key)) return fallback;
+    const json& v = j_.at(key);
+    if (!v.is_number_integer() && !(v.is_number() && std::floor(v.get<double>()) == v.get<double>()))
+      throw SceneError(at(key), "must be an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    const long x = static_cast<long>(v.get<double>());
+    if (x < lo || x > hi)
+      throw SceneError(at(key), "must be an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    return x;
+  }
+  std::string string(const std::string& key, const std::vector<std::string>& accepted = {}) const {
+    const json& v = raw(key);
+    if (!v.is_string()) throw SceneError(at(key), "must be a string");
+    const std::string s = v.get<std::string>();
+    check_choice(at(key), s, accepted);
+    return s;
+  }
+  std::string string_or(const std::string& key, const std::string& fallback,
+                        const std::vector<std::string>& accepted = {}) const {
+    return has(key) ? string(key, accepted) : fallback;
+  }
+  bool boolean_or(const std::string& key, bool fallback) const {
+    if (!has(key)) return fallback;
+    if (!j_.at(key).is_boolean()) throw SceneError(at(key), "must be true or false");
+    return j_.at(key).get<bool>();
+  }
+  // A vector of exactly n finite numbers.
+  std::vector<real> vector(const std::string& key, int n, real lo = -1e7, real hi = 1e7) const {
+    const json& v = raw(key);
+    if (!v.is_array() || static_cast<int>(v.size()) != n)
+      throw SceneError(at(key), "must be an array of " + std::to_string(n) + " numbers");
+    std::vector<real> out;
+    for (int k = 0; k < n; ++k)
+      out.push_back(check_number(v[k], at(key) + "[" + std::to_string(k) + "]", lo, hi, false, false));
+    return out;
+  }
+
+  static void check_choice(const std::string& field, const std::string& s, const std::vector<std::string>& accepted) {
+    if (accepted.empty()) return;
+    for (const auto& a : accepted)
+      if (a == s) return;
+    std::string list;
+    for (const auto& a : accepted) list += (list.empty() ? "" : ", ") + a;
+    throw SceneError(field, "unknown value '" + s + "' (accepted: " + list + ")");
+  }
+  static real check_number(const json& v, const std::string& field, real lo, real hi, bool lo_open, bool hi_open) {
+    const std::string range =
+        std::string(lo_open ? "(" : "[") + fmt(lo) + ", " + fmt(hi) + (hi_open ? ")" : "]");
+    if (!v.is_number()) throw SceneError(field, "must be a number in " + range);
+    const real x = v.get<double>();
+    if (!std::isfinite(x) || (lo_open ? x <= lo : x < lo) || (hi_open ? x >= hi : x > hi))
+      throw SceneError(field, "must be a number in " + range + " (got " + fmt(x) + ")");
+    return x;
+  }
+
+ private:
+  json j_;  // a copy: callers pass temporaries (json::object() defaults)
+  std::string path_;
+};
+
+template <int D>
+Vec<D> to_vec(const std::vector<real>& v) {
+  Vec<D> out;
+  for (int d = 0; d < D; ++d) out[d] = v[d];
+  return out;
+}
+
+// Face names: x-, x+, y-, y+, (z-, z+), and "top"/"bottom" for the vertical axis.
+template <int D>
+FaceMask<D> parse_faces(const Fields& f, const std::string& key, FaceMask<D> mask) {
+  if (!f.has(key)) return mask;
+  const json& v = f.raw(key);
+  if (!v.is_array()) throw SceneError(f.at(key), "must be an array of face names");
+  const char axes[] = {'x', 'y', 'z'};
+  for (size_t k = 0; k < v.size(); ++k) {
+    const std::string field = f.at(key) + "[" + std::to_string(k) + "]";
+    if (!v[k].is_string()) throw SceneError(field, "must be a face name");
+    std::string s = v[k].get<std::string>();
+    if (s == "top") s = std::string(1, axes[D - 1]) + "+";
+    if (s == "bottom") s = std::string(1, axes[D - 1]) + "-";
+    bool ok = false;
+    for (int d = 0; d < D; ++d) {
+      if (s.size() == 2 && s[0] == axes[d] && (s[1] == '-' || s[1] == '+')) {
+        mask[d][s[1] == '+' ? 1 : 0] = true;
+        ok = true;
+      }
+    }
+    if (!ok) {
+      std::string list;
+      for (int d = 0; d < D; ++d) list += std::string(d ? ", " : "") + axes[d] + "-, " + axes[d] + "+";
+      throw SceneError(field, "unknown face '" + s + "' (accepted: " + list + ", top, bottom)");
+    }
+  }
+  return mask;
+}
+
+// A box: either {min, max} (axis-aligned) or {origin, size, angle}.
+template <int D>
+OrientedBox<D> parse_box(const Fields& f) {
+  OrientedBox<D> box;
+  if (f.has("min") || f.has("max")) {
+    const Vec<D> lo = to_vec<D>(f.vector("min", D));
+    const Vec<D> hi = to_vec<D>(f.vector("max", D));
+    for (int d = 0; d < D; ++d)
+      if (!(hi[d] > lo[d])) throw SceneError(f.at("max"), "must exceed min in every component");
+    box.origin = lo;
+    box.size = hi - lo;
+  } else {
+    box.origin = to_vec<D>(f.vector("origin", D));
+    box.size = to_vec<D>(f.vector("size", D, 0.0, 1e7));
+    for (int d = 0; d < D; ++d)
+      if (!(box.size[d] > 0)) throw SceneError(f.at("size"), "every component must be > 0 m");
+    box.angle_deg = f.number_or("angle", 0.0, -90.0, 90.0);
+  }
+  return box;
+}
+
+real box_volume_particles(const json& j, int D, real dp) {
+  // Cheap estimate for the particle-count limit: bounding size / dp per axis.
+  auto extent = [&](int d) -> real {
+    if (j.contains("size") && j["size"].is_array() && j["size"].size() > static_cast<size_t>(d) &&
+        j["size"][d].is_number())
+      return j["size"][d].get<double>();
+    if (j.contains("min") && j.contains("max") && j["min"].is_array() && j["max"].is_array() &&
+        j["min"].size() > static_cast<size_t>(d) && j["max"].size() > static_cast<size_t>(d) &&
+        j["min"][d].is_number() && j["max"][d].is_number())
+      return j["max"][d].get<double>() - j["min"][d].get<double>();
+    return 0.0;
+  };
+  real n = 1;
+  for (int d = 0; d < D; ++d) n *= std::max<real>(0.0, extent(d) / dp);
+  return n;
+}
+
+const std::vector<std::string> kTopKeys = {"name",   "dimensions", "dp",     "duration", "gravity", "materials",
+                                           "numerics", "fluid",    "boundaries", "domain", "output", "limits",
+                                           "description"};
+
+template <int D>
+Scene build(const json& j, Scene scene) {
+  Fields top(j, "", std::set<std::string>(kTopKeys.begin(), kTopKeys.end()));
+  SceneSetup<D> setup;
+  SolverConfig& cfg = setup.config;
+  const real dp = scene.dp;
+  cfg.dp = dp;
+
+  // Gravity.
+  if (top.has("gravity")) {
+    const auto g = top.vector("gravity", D, -1000.0, 1000.0);
+    cfg.gravity = {0, 0, 0};
+    for (int d = 0; d < D; ++d) cfg.gravity[d] = g[d];
+  } else {
+    cfg.gravity = {0, 0, 0};
+    cfg.gravity[D - 1] = -9.81;
+  }
+  real g_mag = 0;
+  for (int d = 0; d < D; ++d) g_mag += cfg.gravity[d] * cfg.gravity[d];
+  g_mag = std::sqrt(g_mag);
+
+  // Materials (validated by the engine's rheology factories, which name the field).
+  const json& mats = top.raw("materials");
+  if (!mats.is_array() || mats.empty() || mats.size() > 16)
+    throw SceneError("materials", "must be an array of 1 to 16 materials");
+  std::map<std::string, uint16_t> material_index;
+  for (size_t k = 0; k < mats.size(); ++k) {
+    const std::string path = "materials[" + std::to_string(k) + "]";
+    Fields f(mats[k], path,
+             {"name", "rheology", "density", "viscosity", "flow_index", "regularisation", "yield_stress",
+              "friction_angle", "cohesion"});
+    MaterialParams m;
+    m.name = f.string("name");
+    if (material_index.count(m.name)) throw SceneError(f.at("name"), "duplicate material name '" + m.name + "'");
+    m.rheology = f.string("rheology", rheology_names());
+    m.density = f.number("density", 0.0, 1e5, true);
+    m.viscosity = f.number_or("viscosity", m.rheology == "newtonian" ? 0.0 : 1e-3, 0.0, 1e8);
+    m.flow_index = f.number_or("flow_index", 1.0, 0.0, 5.0, true);
+    m.regularisation = f.number_or("regularisation", 100.0, 0.0, 1e8, true);
+    m.yield_stress = f.number_or("yield_stress", 0.0, 0.0, 1e7);
+    m.friction_angle_deg = f.number_or("friction_angle", 0.0, 0.0, 90.0, false, true);
+    m.cohesion = f.number_or("cohesion", 0.0, 0.0, 1e7);
+    if ((m.rheology == "bingham" || m.rheology == "hbp") && !f.has("yield_stress"))
+      throw SceneError(f.at("yield_stress"), "missing (required for rheology '" + m.rheology + "', in [0, 1e7] Pa)");
+    if (m.rheology == "friction-hbp" && !f.has("friction_angle"))
+      throw SceneError(f.at("friction_angle"), "missing (required for friction-hbp, in [0, 90) degrees)");
+    try {
+      (void)make_rheology(m);
+    } catch (const std::invalid_argument& e) {
+      throw SceneError(path, e.what());
+    }
+    material_index[m.name] = static_cast<uint16_t>(setup.materials.size());
+    setup.materials.push_back(m);
+  }
+
+  // Particle-count limit, checked on an estimate before any particle is made.
+  {
+    Fields lim(j.contains("limits") ? j["limits"] : json::object(), "limits", {"max_particles"});
+    scene.max_particles = lim.integer("max_particles", scene.max_particles, 1, 200'000'000);
+    real est = 0;
+    for (const char* key : {"fluid", "boundaries"})
+      if (j.contains(key) && j[key].is_array())
+        for (const auto& b : j[key]) est += box_volume_particles(b, D, dp);
+    if (est > static_cast<real>(scene.max_particles))
+      throw SceneError("dp", "the geometry at dp = " + fmt(dp) + " m needs about " + fmt(std::round(est)) +
+                                 " particles, over limits.max_particles = " + std::to_string(scene.max_particles) +
+                                 " (raise dp or the limit)");
+  }
+
+  // Fluid blocks.
+  const json& fluid = top.raw("fluid");
+  if (!fluid.is_array() || fluid.empty()) throw SceneError("fluid", "must be a non-empty array of fluid blocks");
+  real fluid_top = -1e300, fluid_bottom = 1e300;
+  struct PendingFluid {
+    Lattice<D> lattice;
+    uint16_t material;
+  };
+  std::vector<PendingFluid> pending;
+  for (size_t k = 0; k < fluid.size(); ++k) {
+    const std::string path = "fluid[" + std::to_string(k) + "]";
+    Fields f(fluid[k], path, {"shape", "min", "max", "origin", "size", "angle", "material"});
+    f.string_or("shape", "box", {"box"});
+    const OrientedBox<D> box = parse_box<D>(f);
+    const std::string mat = f.string("material");
+    if (!material_index.count(mat)) throw SceneError(f.at("material"), "no material named '" + mat + "'");
+    Lattice<D> lat = fill_box<D>(box, dp);
+    if (lat.points.empty()) throw SceneError(path, "block is thinner than dp = " + fmt(dp) + " m");
+    for (const auto& p : lat.points) {
+      fluid_top = std::max(fluid_top, p[D - 1] + 0.5 * dp);
+      fluid_bottom = std::min(fluid_bottom, p[D - 1] - 0.5 * dp);
+    }
+    pending.push_back({std::move(lat), material_index[mat]});
+  }
+
+  // Boundaries.
+  scene.boundary_tags = {""};
+  std::vector<std::pair<Vec<D>, uint32_t>> bparticles;
+  real bottom = fluid_bottom;
+  if (top.has("boundaries")) {
+    const json& bs = top.raw("boundaries");
+    if (!bs.is_array()) throw SceneError("boundaries", "must be an array of boundary objects");
+    for (size_t k = 0; k < bs.size(); ++k) {
+      const std::string path = "boundaries[" + std::to_string(k) + "]";
+      Fields f(bs[k], path,
+               {"type", "tag", "min", "max", "origin", "size", "angle", "layers", "open", "length", "width",
+                "wall_height"});
+      const std::string type = f.string("type", {"tank", "block", "plane", "flume"});
+      const std::string tag_name = f.string_or("tag", type + std::to_string(k));
+      const uint32_t tag = static_cast<uint32_t>(scene.boundary_tags.size());
+      scene.boundary_tags.push_back(tag_name);
+      const int layers = static_cast<int>(f.integer("layers", 3, 1, 10));
+      std::vector<Vec<D>> pts;
+      FaceMask<D> none{};
+      if (type == "tank") {
+        FaceMask<D> open{};
+        open[D - 1][1] = true;
+        open = parse_faces<D>(f, "open", f.has("open") ? FaceMask<D>{} : open);
+        const OrientedBox<D> inner = parse_box<D>(f);
+        pts = tank_walls<D>(inner, dp, layers, open);
+        auto regions = tank_leak_regions<D>(inner, dp, layers, open, static_cast<int>(tag));
+        setup.leak_regions.insert(setup.leak_regions.end(), regions.begin(), regions.end());
+      } else if (type == "block") {
+        const OrientedBox<D> box = parse_box<D>(f);
+        pts = solid_box_shell<D>(box, dp, layers, none);
+        auto regions = solid_box_leak_regions<D>(box, dp, none, static_cast<int>(tag));
+        setup.leak_regions.insert(setup.leak_regions.end(), regions.begin(), regions.end());
+      } else {  // plane or flume: a bed slab under a surface line starting at `origin`
+        const Vec<D> origin = to_vec<D>(f.vector("origin", D));
+        const real length = f.number("length", 0.0, 1e6, true);
+        const real width = D == 3 ? f.number("width", 0.0, 1e6, true) : 0.0;
+        const real angle = f.number_or("angle", 0.0, -89.0, 89.0);
+        const real t = layers * dp;
+        auto slab = [&](real x0, real x1, real y0, real y1, real z0, real z1) {
+          OrientedBox<D> b;
+          b.angle_deg = angle;
+          Vec<D> lo = Vec<D>::Zero();
+          lo[0] = x0;
+          lo[D - 1] = z0;
+          if constexpr (D == 3) lo[1] = y0;
+          b.origin = origin;
+          b.origin = b.to_world(lo);
+          b.size[0] = x1 - x0;
+          b.size[D - 1] = z1 - z0;
+          if constexpr (D == 3) b.size[1] = y1 - y0;
+          auto p = solid_box_shell<D>(b, dp, 1000, none);
+          pts.insert(pts.end(), p.begin(), p.end());
+          auto regions = solid_box_leak_regions<D>(b, dp, none, static_cast<int>(tag));
+          setup.leak_regions.insert(setup.leak_regions.end(), regions.begin(), regions.end());
+        };
+        slab(0, length, 0, width, -t, 0);
+        if (type == "flume" && D == 3) {
+          const real wall_h = f.number("wall_height", 0.0, 1e4, true);
+          slab(0, length, -t, 0, -t, wall_h);
+          slab(0, length, width, width + t, -t, wall_h);
+        }
+      }
+      if (pts.empty()) throw SceneError(path, "makes no boundary particles at dp = " + fmt(dp) + " m");
+      for (const auto& p : pts) {
+        bparticles.push_back({p, tag});
+        bottom = std::min(bottom, p[D - 1]);
+      }
+    }
+  }
+
+  // Numerics.
+  Fields num(j.contains("numerics") ? j["numerics"] : json::object(), "numerics",
+             {"kernel", "smoothing_ratio", "speed_of_sound", "speed_of_sound_beta", "depth_scale", "integrator",
+              "cfl", "density_diffusion", "density_diffusion_delta", "artificial_viscosity", "viscosity_cap",
+              "viscosity_cap_factor", "shear_rate_floor", "min_dt", "boundary_density", "verlet_reset_steps"});
+  cfg.kernel = kernel_from_name(num.string_or("kernel", "wendland", kernel_names()));
+  cfg.smoothing_length = num.number_or("smoothing_ratio", 1.5, 1.0, 3.0) * dp;
+  const std::string integ = num.string_or("integrator", "symplectic", {"symplectic", "verlet"});
+  cfg.integrator = integ == "verlet" ? Integrator::verlet : Integrator::symplectic;
+  cfg.verlet_reset_steps = static_cast<int>(num.integer("verlet_reset_steps", 40, 1, 1000));
+  cfg.cfl = num.number_or("cfl", 0.2, 0.0, 1.0, true);
+  const std::string ddt = num.string_or("density_diffusion", "fourtakas", {"none", "molteni", "fourtakas"});
+  cfg.density_diffusion = ddt == "none"      ? DensityDiffusion::none
+                          : ddt == "molteni" ? DensityDiffusion::molteni
+                                             : DensityDiffusion::fourtakas;
+  cfg.density_diffusion_delta = num.number_or("density_diffusion_delta", 0.1, 0.0, 1.0);
+  cfg.artificial_viscosity = num.number_or("artificial_viscosity", 0.0, 0.0, 10.0);
+  // c0: explicit, or beta sqrt(g H) with H the depth scale (default: fluid top to the lowest particle).
+  const real depth_scale = num.number_or("depth_scale", std::max(fluid_top - bottom, dp), 0.0, 1e5, true);
+  const real beta = num.number_or("speed_of_sound_beta", 10.0, 1.0, 100.0);
+  cfg.speed_of_sound = num.has("speed_of_sound") ? num.number("speed_of_sound", 0.0, 1e5, true)
+                                                 : beta * std::sqrt(std::max(g_mag, 1e-3) * depth_scale);
+  if (num.has("viscosity_cap")) {
+    const json& cap = num.raw("viscosity_cap");
+    if (cap.is_string()) {
+      Fields::check_choice(num.at("viscosity_cap"), cap.get<std::string>(), {"auto"});
+      cfg.max_viscosity = 0;
+    } else {
+      cfg.max_viscosity = Fields::check_number(cap, num.at("viscosity_cap"), 0.0, 1e12, true, false);
+    }
+  }
+  cfg.viscosity_cap_factor = num.number_or("viscosity_cap_factor", 1.0, 0.0, 1e6, true);
+  cfg.shear_rate_floor = num.number_or("shear_rate_floor", 1e-6, 0.0, 1e3, true);
+  cfg.min_dt = num.number_or("min_dt", 1e-8, 0.0, 1.0, true);
+  cfg.boundary_density = num.number_or("boundary_density", setup.materials[0].density, 0.0, 1e5, true);
+
+  // Fluid particles, with a hydrostatic initial density (less start-up shock than rho0 everywhere).
+  const real gam = cfg.eos_gamma;
+  for (const auto& pf : pending) {
+    const real rho0 = setup.materials[pf.material].density;
+    const real B = cfg.speed_of_sound * cfg.speed_of_sound * rho0 / gam;
+    for (size_t q = 0; q < pf.lattice.points.size(); ++q) {
+      const real p = rho0 * g_mag * pf.lattice.depth[q];
+      const real rho = rho0 * std::pow(1.0 + p / B, 1.0 / gam);
+      setup.fluid.add(pf.lattice.points[q], rho, rho0 * std::pow(dp, D), pf.material, 0);
+    }
+  }
+  const real bmass = cfg.boundary_density * std::pow(dp, D);
+  for (const auto& [p, tag] : bparticles) setup.boundary.add(p, cfg.boundary_density, bmass, 0, tag);
+  const long total = static_cast<long>(setup.fluid.size() + setup.boundary.size());
+  if (total > scene.max_particles)
+    throw SceneError("dp", "the scene has " + std::to_string(total) + " particles, over limits.max_particles = " +
+                               std::to_string(scene.max_particles));
+
+  // Domain: default is the bounding box of all particles plus 4h; every face closed.
+  Vec<D> lo = Vec<D>::Constant(1e300), hi = Vec<D>::Constant(-1e300);
+  for (size_t i = 0; i < setup.fluid.size(); ++i) {
+    lo = lo.cwiseMin(setup.fluid.position(i));
+    hi = hi.cwiseMax(setup.fluid.position(i));
+  }
+  for (size_t i = 0; i < setup.boundary.size(); ++i) {
+    lo = lo.cwiseMin(setup.boundary.position(i));
+    hi = hi.cwiseMax(setup.boundary.position(i));
+  }
+  const real margin = 4.0 * cfg.smoothing_length;
+  for (int d = 0; d < D; ++d) {
+    cfg.domain_min[d] = lo[d] - margin;
+    cfg.domain_max[d] = hi[d] + margin;
+  }
+  if (top.has("domain")) {
+    Fields dom(top.raw("domain"), "domain", {"min", "max", "periodic", "outflow"});
+    if (dom.has("min")) {
+      const auto v = dom.vector("min", D);
+      for (int d = 0; d < D; ++d) cfg.domain_min[d] = v[d];
+    }
+    if (dom.has("max")) {
+      const auto v = dom.vector("max", D);
+      for (int d = 0; d < D; ++d) {
+        cfg.domain_max[d] = v[d];
+        if (!(cfg.domain_max[d] > cfg.domain_min[d])) throw SceneError("domain.max", "must exceed domain.min");
+      }
+    }
+    if (dom.has("periodic")) {
+      const json& p = dom.raw("periodic");
+      if (!p.is_array() || p.size() != static_cast<size_t>(D))
+        throw SceneError("domain.periodic", "must be an array of " + std::to_string(D) + " booleans");
+      for (int d = 0; d < D; ++d) {
+        if (!p[d].is_boolean()) throw SceneError("domain.periodic", "must be an array of booleans");
+        cfg.periodic[d] = p[d].get<bool>();
+        if (cfg.periodic[d] && (!dom.has("min") || !dom.has("max")))
+          throw SceneError("domain.periodic", "a periodic axis needs domain.min and domain.max");
+        if (cfg.periodic[d] && cfg.domain_max[d] - cfg.domain_min[d] < 6.0 * cfg.smoothing_length)
+          throw SceneError("domain.periodic", "a periodic axis must be at least 6h long");
+      }
+    }
+    FaceMask<D> outflow = parse_faces<D>(dom, "outflow", FaceMask<D>{});
+    for (int d = 0; d < D; ++d) cfg.outflow[d] = outflow[d];
+  }
+
+  scene.setup = std::move(setup);
+  return scene;
+}
+
+}  // namespace
+
+Scene parse_scene(const std::string& json_text) {
+  json j;
+  try {
+    j = json::parse(json_text);
+  } catch (const json::parse_error& e) {
+    throw SceneError("(json)", std::string("malformed JSON: ") + e.what());
+  }
+  if (!j.is_object()) throw SceneError("(root)", "a scene must be a JSON object");
+  Fields top(j, "", std::set<std::string>(kTopKeys.begin(), kTopKeys.end()));
+  Scene scene;
+  scene.name = top.string_or("name", "scene");
+  scene.dimensions = static_cast<int>(top.integer("dimensions", 0, 2, 3));
+  if (!top.has("dimensions")) throw SceneError("dimensions", "missing (required: 2 or 3)");
+  scene.dp = top.number("dp", 1e-4, 100.0);
+  scene.duration = top.number("duration", 0.0, 1e5, true);
+  Fields out(j.contains("output") ? j["output"] : json::object(), "output", {"series_interval", "snapshot_interval"});
+  scene.output.series_interval = out.number_or("series_interval", std::min(0.01, scene.duration / 100.0), 0.0, 1e4, true);
+  scene.output.snapshot_interval = out.number_or("snapshot_interval", 0.0, 0.0, 1e4);
+  scene.canonical_json = j.dump();
+  return scene.dimensions == 2 ? build<2>(j, std::move(scene)) : build<3>(j, std::move(scene));
+}
+
+Scene load_scene(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw SceneError("(file)", "cannot read scene file '" + path.string() + "'");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_scene(ss.str());
+}
+
+}  // namespace runout

@@ -1,0 +1,141 @@
+// Rheology laws and the shear-rate convention: simple shear u = g y must give |gamma_dot| = g and
+// tau_xy = mu_eff g = tau_y + mu g^n for large m.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "runout/engine/rheology.hpp"
+#include "runout/engine/solver.hpp"
+
+using namespace runout;
+
+namespace {
+double mu_eff(const Rheology& r, double g, double p) {
+  double out;
+  r.effective_viscosity(std::span<const real>(&g, 1), std::span<const real>(&p, 1), std::span<real>(&out, 1));
+  return out;
+}
+MaterialParams friction(double phi, double c, double mu, double n, double m) {
+  MaterialParams p;
+  p.name = "debris";
+  p.rheology = "friction-hbp";
+  p.density = 2000;
+  p.viscosity = mu;
+  p.flow_index = n;
+  p.regularisation = m;
+  p.friction_angle_deg = phi;
+  p.cohesion = c;
+  return p;
+}
+}  // namespace
+
+TEST(Rheology, FrictionHBPWithLargeMIsHerschelBulkleyInSimpleShear) {
+  // tau = mu_eff * g must equal tau_y + mu g^n once m g >> 1.
+  const auto r = make_rheology(friction(28.0, 500.0, 2.0, 1.05, 1e4));
+  for (double p : {0.0, 1e3, 2e4}) {
+    for (double g : {0.5, 3.0, 40.0}) {
+      const double tau_y = std::max(p, 0.0) * std::sin(28.0 * kPi / 180) + 500.0 * std::cos(28.0 * kPi / 180);
+      const double expected = tau_y + 2.0 * std::pow(g, 1.05);
+      EXPECT_NEAR(mu_eff(*r, g, p) * g, expected, 1e-9 * expected) << "p=" << p << " g=" << g;
+    }
+  }
+}
+
+TEST(Rheology, YieldStressFollowsMohrCoulombWithPositivePressureOnly) {
+  const auto r = make_rheology(friction(35.0, 200.0, 0.0, 1.0, 100.0));
+  const double s = std::sin(35.0 * kPi / 180), c = std::cos(35.0 * kPi / 180);
+  EXPECT_NEAR(r->yield_stress(1e4), 1e4 * s + 200 * c, 1e-9);
+  EXPECT_NEAR(r->yield_stress(0.0), 200 * c, 1e-12);
+  EXPECT_NEAR(r->yield_stress(-5e3), 200 * c, 1e-12);  // tension gives no frictional strength
+  // And mu_eff sees it: at large g, tau = tau_y(P+) + 0.
+  EXPECT_NEAR(mu_eff(*r, 50.0, -5e3) * 50.0, 200 * c, 1e-6);
+  EXPECT_NEAR(mu_eff(*r, 50.0, 1e4) * 50.0, 1e4 * s + 200 * c, 1e-6);
+}
+
+TEST(Rheology, PhiZeroNOneCZeroIsNewtonian) {
+  const auto r = make_rheology(friction(0.0, 0.0, 0.7, 1.0, 100.0));
+  for (double g : {1e-6, 1e-2, 1.0, 1e3})
+    for (double p : {-1e3, 0.0, 1e5}) EXPECT_DOUBLE_EQ(mu_eff(*r, g, p), 0.7);
+}
+
+TEST(Rheology, PapanastasiouLimitAtZeroShearIsTauYTimesM) {
+  MaterialParams p;
+  p.name = "hbp";
+  p.rheology = "hbp";
+  p.viscosity = 0.0;
+  p.yield_stress = 300.0;
+  p.regularisation = 100.0;
+  const auto r = make_rheology(p);
+  EXPECT_NEAR(mu_eff(*r, 1e-12, 0), 300.0 * 100.0, 1e-3);  // finite, = tau_y m
+  EXPECT_TRUE(std::isfinite(mu_eff(*r, 1e-300, 0)));
+}
+
+TEST(Rheology, BinghamAndHbpAgreeForLargeM) {
+  MaterialParams b;
+  b.name = "b";
+  b.rheology = "bingham";
+  b.viscosity = 5.0;
+  b.yield_stress = 100.0;
+  MaterialParams h = b;
+  h.rheology = "hbp";
+  h.regularisation = 1e5;
+  const auto rb = make_rheology(b), rh = make_rheology(h);
+  for (double g : {0.1, 1.0, 10.0}) EXPECT_NEAR(mu_eff(*rb, g, 0), mu_eff(*rh, g, 0), 1e-9 * mu_eff(*rb, g, 0));
+}
+
+TEST(Rheology, BadParametersNameTheField) {
+  auto expect_field = [](MaterialParams p, const std::string& field) {
+    try {
+      make_rheology(p);
+      ADD_FAILURE() << "accepted bad " << field;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  auto p = friction(28, 0, 1, 1, 100);
+  p.flow_index = 0.0;
+  expect_field(p, "flow_index");
+  p = friction(90, 0, 1, 1, 100);
+  expect_field(p, "friction_angle");
+  p = friction(28, 0, 1, 1, 100);
+  p.density = -1;
+  expect_field(p, "density");
+  p = friction(28, 0, 1, 1, 100);
+  p.rheology = "mud";
+  expect_field(p, "rheology");
+}
+
+// Through the solver: a 2D lattice sheared as u = g y. The interior particles must measure |gamma_dot| = g
+// and a stress tau_xy = mu_eff g equal to the HB law, i.e. the solver's convention matches the law's.
+TEST(Rheology, SolverMeasuresSimpleShearRate) {
+  SceneSetup<2> s;
+  s.config.dp = 0.01;
+  s.config.smoothing_length = 0.015;
+  s.config.gravity = {0, 0, 0};
+  s.config.speed_of_sound = 50;
+  s.config.max_viscosity = 1e12;
+  s.materials.push_back(friction(0.0, 400.0, 3.0, 0.8, 1e4));  // c = 400 Pa, P = 0 -> tau_y = 400 Pa
+  const double g = 2.5;
+  for (int a = 0; a < 30; ++a)
+    for (int b = 0; b < 30; ++b) {
+      Vec<2> p(a * 0.01, b * 0.01);
+      s.fluid.add(p, 2000.0, 2000.0 * 1e-4, 0, 0);
+      s.fluid.vel[0].back() = g * p[1];
+    }
+  Solver<2> solver(std::move(s));
+  solver.evaluate_rates();
+  const auto& f = solver.fluid();
+  int checked = 0;
+  for (size_t i = 0; i < f.size(); ++i) {
+    const double x = f.pos[0][i], y = f.pos[1][i];
+    if (x < 0.05 || x > 0.24 || y < 0.05 || y > 0.24) continue;  // interior: full kernel support
+    ++checked;
+    // 1%: the uncorrected SPH gradient on a lattice is off by ~0.3% at h = 1.5 dp (see the kernel lattice
+    // test); a wrong convention would be off by a factor sqrt(2) or 2.
+    EXPECT_NEAR(solver.fluid_shear_rate()[i], g, 0.01 * g);
+    const double gm = solver.fluid_shear_rate()[i];
+    const double tau = solver.fluid_effective_viscosity()[i] * gm;
+    EXPECT_NEAR(tau, 400.0 + 3.0 * std::pow(gm, 0.8), 1e-6 * tau);
+  }
+  EXPECT_GT(checked, 100);
+}
