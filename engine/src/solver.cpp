@@ -35,11 +35,6 @@ constexpr int64_t kCellBias = int64_t{1} << (kCellBits - 1);
 constexpr uint64_t kRemovedKey = std::numeric_limits<uint64_t>::max();
 
 template <int D>
-constexpr int pow3() {
-  return D == 2 ? 9 : 27;
-}
-
-template <int D>
 constexpr int kStressComponents = D * (D + 1) / 2;
 
 // Index of component (a, b) in the packed upper-triangle stress.
@@ -61,20 +56,23 @@ std::string fmt_time(real t) {
 
 }  // namespace
 
-// Cell grid and neighbour blocks. A block is a contiguous range of sorted particles in one neighbouring cell
-// plus the periodic image shift to apply to them.
+// Cell grid and neighbour blocks. Cells have size h (half the kernel support) and are searched two cells
+// each way. Keys pack the vertical axis in the lowest bits, so the five cells of one vertical column are
+// contiguous in sorted order: each neighbour "block" is one such column run (5 blocks per cell in 2D, 25 in
+// 3D) plus the periodic image shift to apply to it.
 template <int D>
 struct Solver<D>::Impl {
   struct Block {
     uint32_t begin, end, shift;
   };
-  static constexpr int kNb = pow3<D>();
+  static constexpr int kReach = 2;
+  static constexpr int kSpan = 2 * kReach + 1;
+  static constexpr int kNb = D == 2 ? kSpan : kSpan * kSpan;
 
   Vec<D> origin, cell_size, inv_cell, period;
   std::array<int64_t, D> periodic_cells{};  // 0 if the axis is not periodic
-  std::vector<Vec<D>> shifts;                // kNb entries, index sum (s_d + 1) 3^d
+  std::vector<Vec<D>> shifts;                // 3^(D-1) entries, index sum (s_d + 1) 3^d over horizontal axes
 
-  std::vector<uint64_t> fluid_key;  // per particle, sorted
   std::vector<uint64_t> fcell_key;
   std::vector<uint32_t> fcell_begin;  // size cells + 1
   std::vector<Block> fnb_fluid, fnb_bound;  // stride kNb per fluid cell
@@ -101,7 +99,7 @@ struct Solver<D>::Impl {
         k %= periodic_cells[d];
         if (k < 0) k += periodic_cells[d];
       }
-      c[d] = std::clamp<int64_t>(k, -kCellBias, kCellBias - 1);
+      c[d] = std::clamp<int64_t>(k, -kCellBias + kReach, kCellBias - 1 - kReach);
     }
     return c;
   }
@@ -117,34 +115,37 @@ struct Solver<D>::Impl {
       c[d] = static_cast<int64_t>((key >> (kCellBits * (D - 1 - d))) & mask) - kCellBias;
     return c;
   }
-  // Neighbour cell `o` (0..kNb-1) of cell c: its key and shift index; false if off a periodic grid edge.
-  uint64_t neighbour_key(const std::array<int64_t, D>& c, int o, uint32_t& shift) const {
-    std::array<int64_t, D> n;
-    int rem = o;
-    shift = 0;
-    int pw = 1;
-    for (int d = 0; d < D; ++d) {
-      const int off = rem % 3 - 1;
-      rem /= 3;
-      n[d] = c[d] + off;
+  // Column block o (0..kNb-1) around cell c within the cells `keys` (sorted, with particle offsets `begin`):
+  // false when the column holds no particles.
+  bool column(const std::vector<uint64_t>& keys, const std::vector<uint32_t>& begin, const std::array<int64_t, D>& c,
+              int o, Block& out) const {
+    std::array<int64_t, D> lo = c, hi = c;
+    uint32_t shift = 0;
+    int rem = o, pw = 1;
+    for (int d = 0; d < D - 1; ++d) {
+      int64_t n = c[d] + rem % kSpan - kReach;
+      rem /= kSpan;
       int s = 0;
       if (periodic_cells[d] > 0) {
-        if (n[d] >= periodic_cells[d]) {
-          n[d] -= periodic_cells[d];
+        if (n >= periodic_cells[d]) {
+          n -= periodic_cells[d];
           s = 1;
-        } else if (n[d] < 0) {
-          n[d] += periodic_cells[d];
+        } else if (n < 0) {
+          n += periodic_cells[d];
           s = -1;
         }
       }
+      lo[d] = hi[d] = n;
       shift += static_cast<uint32_t>((s + 1) * pw);
       pw *= 3;
     }
-    return pack(n);
-  }
-  static int64_t find(const std::vector<uint64_t>& keys, uint64_t key) {
-    auto it = std::lower_bound(keys.begin(), keys.end(), key);
-    return (it != keys.end() && *it == key) ? (it - keys.begin()) : -1;
+    lo[D - 1] = c[D - 1] - kReach;
+    hi[D - 1] = c[D - 1] + kReach;
+    const auto k0 = std::lower_bound(keys.begin(), keys.end(), pack(lo)) - keys.begin();
+    const auto k1 = std::upper_bound(keys.begin() + k0, keys.end(), pack(hi)) - keys.begin();
+    if (k0 >= k1) return false;
+    out = {begin[k0], begin[k1], shift};
+    return true;
   }
 };
 
@@ -170,16 +171,17 @@ Solver<D>::Solver(SceneSetup<D> setup)
     max_viscosity_ = config_.viscosity_cap_factor * 0.125 * h * rho_min * config_.speed_of_sound / config_.cfl;
   }
 
-  // Grid: cells of the kernel support; a periodic axis gets a whole number (>= 3) of cells.
+  // Grid: cells of size h (half the support); a periodic axis gets a whole number (>= 5) of cells.
   for (int d = 0; d < D; ++d) {
-    I.cell_size[d] = support;
+    I.cell_size[d] = 0.5 * support;
     I.origin[d] = 0.0;
     I.period[d] = 0.0;
     if (config_.periodic[d]) {
+      if (d == D - 1) throw std::invalid_argument("domain.periodic: the vertical axis cannot be periodic");
       const real L = config_.domain_max[d] - config_.domain_min[d];
-      const int64_t n = static_cast<int64_t>(std::floor(L / support));
-      if (n < 3)
-        throw std::invalid_argument("domain: a periodic axis must be at least 3 kernel supports (6h) long");
+      const int64_t n = static_cast<int64_t>(std::floor(L / (0.5 * support)));
+      if (n < 2 * Impl::kReach + 1)
+        throw std::invalid_argument("domain.periodic: a periodic axis must be at least 5h long");
       I.periodic_cells[d] = n;
       I.cell_size[d] = L / static_cast<real>(n);
       I.origin[d] = config_.domain_min[d];
@@ -195,15 +197,19 @@ Solver<D>::Solver(SceneSetup<D> setup)
     for (real x : boundary_.pos[d]) lo = std::min(lo, x);
     I.origin[d] = (lo < 1e299 ? lo : 0.0) - support;
   }
-  I.shifts.resize(Impl::kNb);
-  for (int o = 0; o < Impl::kNb; ++o) {
-    int rem = o;
-    Vec<D> s;
-    for (int d = 0; d < D; ++d) {
-      s[d] = (rem % 3 - 1) * I.period[d];
-      rem /= 3;
+  {
+    int nshift = 1;
+    for (int d = 0; d < D - 1; ++d) nshift *= 3;
+    I.shifts.resize(nshift);
+    for (int o = 0; o < nshift; ++o) {
+      int rem = o;
+      Vec<D> sv = Vec<D>::Zero();
+      for (int d = 0; d < D - 1; ++d) {
+        sv[d] = (rem % 3 - 1) * I.period[d];
+        rem /= 3;
+      }
+      I.shifts[o] = sv;
     }
-    I.shifts[o] = s;
   }
 
   // Boundary particles never move: sort them by cell once.
@@ -286,7 +292,8 @@ void Solver<D>::sort_and_build_cells() {
   const size_t n = fluid_.size();
   I.sort_buf.resize(n);
   size_t removed = 0;
-#pragma omp parallel for reduction(+ : removed)
+  real wrap_pe = 0;  // change of -m g.x from this step's periodic wraps: not a physical change of PE
+#pragma omp parallel for reduction(+ : removed, wrap_pe)
   for (size_t i = 0; i < n; ++i) {
     Vec<D> p = fluid_.position(i);
     bool out = false;
@@ -297,6 +304,7 @@ void Solver<D>::sort_and_build_cells() {
         if (x < 0 || x >= L) {
           x -= std::floor(x / L) * L;
           if (x >= L) x = 0;
+          wrap_pe -= fluid_.mass[i] * config_.gravity[d] * (config_.domain_min[d] + x - p[d]);
           p[d] = config_.domain_min[d] + x;
           fluid_.pos[d][i] = p[d];
           if (config_.integrator == Integrator::verlet) pos_saved_[d][i] = p[d];
@@ -309,6 +317,7 @@ void Solver<D>::sort_and_build_cells() {
     I.sort_buf[i] = {out ? kRemovedKey : Impl::pack(I.coords(p)), static_cast<uint32_t>(i)};
     removed += out ? 1 : 0;
   }
+  potential_outflow_ -= wrap_pe;  // keeps PE(t) + potential_outflow_ continuous across a wrap
   std::sort(I.sort_buf.begin(), I.sort_buf.end());
   const size_t keep = n - removed;
   if (removed > 0) {
@@ -372,29 +381,28 @@ void Solver<D>::sort_and_build_cells() {
   for (size_t c = 0; c < ncells; ++c) {
     const auto cc = Impl::unpack(I.fcell_key[c]);
     int nf = 0, nbnd = 0;
+    typename Impl::Block blk;
     for (int o = 0; o < kNb; ++o) {
-      uint32_t shift;
-      const uint64_t key = I.neighbour_key(cc, o, shift);
-      const int64_t f = Impl::find(I.fcell_key, key);
-      if (f >= 0) I.fnb_fluid[c * kNb + nf++] = {I.fcell_begin[f], I.fcell_begin[f + 1], shift};
-      const int64_t b = Impl::find(I.bcell_key, key);
-      if (b >= 0) I.fnb_bound[c * kNb + nbnd++] = {I.bcell_begin[b], I.bcell_begin[b + 1], shift};
+      if (I.column(I.fcell_key, I.fcell_begin, cc, o, blk)) I.fnb_fluid[c * kNb + nf++] = blk;
+      if (I.column(I.bcell_key, I.bcell_begin, cc, o, blk)) I.fnb_bound[c * kNb + nbnd++] = blk;
     }
     I.fnb_fluid_n[c] = static_cast<uint8_t>(nf);
     I.fnb_bound_n[c] = static_cast<uint8_t>(nbnd);
   }
 
-  // Boundary cells adjacent to fluid: the only boundary particles that do work this step.
+  // Boundary cells next to fluid: the only boundary particles that do work this step. Boundary blocks are
+  // runs of whole boundary cells, so mark the cells each run covers.
   ++I.stamp;
   I.active_bcells.clear();
   for (size_t c = 0; c < ncells; ++c) {
-    const auto cc = Impl::unpack(I.fcell_key[c]);
-    for (int o = 0; o < kNb; ++o) {
-      uint32_t shift;
-      const int64_t b = Impl::find(I.bcell_key, I.neighbour_key(cc, o, shift));
-      if (b >= 0 && I.bcell_stamp[b] != I.stamp) {
-        I.bcell_stamp[b] = I.stamp;
-        I.active_bcells.push_back(static_cast<uint32_t>(b));
+    for (int k = 0; k < I.fnb_bound_n[c]; ++k) {
+      const auto& blk = I.fnb_bound[c * kNb + k];
+      auto cb = std::upper_bound(I.bcell_begin.begin(), I.bcell_begin.end(), blk.begin) - I.bcell_begin.begin() - 1;
+      for (; cb + 1 < static_cast<int64_t>(I.bcell_begin.size()) && I.bcell_begin[cb] < blk.end; ++cb) {
+        if (I.bcell_stamp[cb] != I.stamp) {
+          I.bcell_stamp[cb] = I.stamp;
+          I.active_bcells.push_back(static_cast<uint32_t>(cb));
+        }
       }
     }
   }
@@ -405,11 +413,9 @@ void Solver<D>::sort_and_build_cells() {
   for (size_t a = 0; a < nact; ++a) {
     const auto cc = Impl::unpack(I.bcell_key[I.active_bcells[a]]);
     int nf = 0;
-    for (int o = 0; o < kNb; ++o) {
-      uint32_t shift;
-      const int64_t f = Impl::find(I.fcell_key, I.neighbour_key(cc, o, shift));
-      if (f >= 0) I.bnb_fluid[a * kNb + nf++] = {I.fcell_begin[f], I.fcell_begin[f + 1], shift};
-    }
+    typename Impl::Block blk;
+    for (int o = 0; o < kNb; ++o)
+      if (I.column(I.fcell_key, I.fcell_begin, cc, o, blk)) I.bnb_fluid[a * kNb + nf++] = blk;
     I.bnb_fluid_n[a] = static_cast<uint8_t>(nf);
   }
 
@@ -484,83 +490,136 @@ void Solver<D>::evaluate(bool compute_dt) {
   const real rho0_b = config_.boundary_density;
   const real B_b = c0 * c0 * rho0_b / gam;
   const size_t nact = I.active_bcells.size();
+  const bool extrapolated = config_.boundary_pressure == BoundaryPressure::extrapolated;
+  if (!extrapolated) {
 #pragma omp parallel for schedule(static)
-  for (size_t a = 0; a < nact; ++a) {
-    const uint32_t cb = I.active_bcells[a];
-    for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b)
-      boundary_pressure_[b] = tait(boundary_.rho[b], rho0_b, B_b);
+    for (size_t a = 0; a < nact; ++a) {
+      const uint32_t cb = I.active_bcells[a];
+      for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b)
+        boundary_pressure_[b] = tait(boundary_.rho[b], rho0_b, B_b);
+    }
   }
 
   real max_acc = 0, max_visc_term = 0, max_nu = 0;
 
-  with_kernel<D>(config_.kernel, h, [&](auto kernel) {
+  // kViscous: the scene has a stress term (pass 1 measures the velocity gradient first); without one,
+  // continuity and momentum share a single neighbour pass.
+  auto interact = [&]<bool kViscous>(auto kernel) {
     const real support2 = kernel.support() * kernel.support();
     const auto& P = fluid_.pos;
     const auto& V = fluid_.vel;
     const auto& BP = boundary_.pos;
+    const real* mass = fluid_.mass.data();
+    const real* rho = fluid_.rho.data();
+    const uint16_t* mat = fluid_.material.data();
+    const real* press = pressure_.data();
+    const real* bmass = boundary_.mass.data();
+    const real* brho = boundary_.rho.data();
+    const real* bpress = boundary_pressure_.data();
 
-    // Pass 1: continuity with density diffusion, and (viscous scenes) the velocity gradient.
-#pragma omp parallel for schedule(dynamic, 8)
-    for (size_t c = 0; c < ncells; ++c) {
-      for (uint32_t i = I.fcell_begin[c]; i < I.fcell_begin[c + 1]; ++i) {
-        Vec<D> xi, vi;
-        for (int d = 0; d < D; ++d) {
-          xi[d] = P[d][i];
-          vi[d] = V[d][i];
-        }
-        const real rhoi = fluid_.rho[i];
-        const int mi = fluid_.material[i];
-        real div = 0, diff = 0;
-        Mat<D> L = Mat<D>::Zero();
-        for (int k = 0; k < I.fnb_fluid_n[c]; ++k) {
-          const auto& blk = I.fnb_fluid[c * kNb + k];
-          const Vec<D> xs = xi - I.shifts[blk.shift];
-          for (uint32_t j = blk.begin; j < blk.end; ++j) {
-            Vec<D> dx;
-            real r2 = 0;
-            for (int d = 0; d < D; ++d) {
-              dx[d] = xs[d] - P[d][j];
-              r2 += dx[d] * dx[d];
+    // Extrapolated boundary pressure (Adami et al. 2012 with the hydrostatic term):
+    // p_b = sum_f (p_f + rho_f g.(x_b - x_f)) W_bf / sum_f W_bf, clamped at 0; density from the EOS.
+    if (extrapolated) {
+#pragma omp parallel for schedule(dynamic, 16)
+      for (size_t a = 0; a < nact; ++a) {
+        const uint32_t cb = I.active_bcells[a];
+        for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b) {
+          Vec<D> xb;
+          for (int d = 0; d < D; ++d) xb[d] = BP[d][b];
+          real sw = 0, spw = 0;
+          for (int k = 0; k < I.bnb_fluid_n[a]; ++k) {
+            const auto& blk = I.bnb_fluid[a * kNb + k];
+            const Vec<D> xs = xb - I.shifts[blk.shift];
+            for (uint32_t j = blk.begin; j < blk.end; ++j) {
+              Vec<D> dx;
+              real r2 = 0;
+              for (int d = 0; d < D; ++d) {
+                dx[d] = xs[d] - P[d][j];
+                r2 += dx[d] * dx[d];
+              }
+              if (r2 >= support2) continue;
+              const real w = kernel.W(std::sqrt(r2));
+              sw += w;
+              spw += (press[j] + rho[j] * g.dot(dx)) * w;
             }
-            if (r2 >= support2 || r2 < 1e-24) continue;
-            const real F = kernel.grad_factor(std::sqrt(r2));
-            const real Vj = fluid_.mass[j] / fluid_.rho[j];
-            Vec<D> vij;
-            real vdotdx = 0;
-            for (int d = 0; d < D; ++d) {
-              vij[d] = vi[d] - V[d][j];
-              vdotdx += vij[d] * dx[d];
-            }
-            div += Vj * F * vdotdx;
-            if (ddt_coef > 0 && fluid_.material[j] == mi) {
-              real drho = fluid_.rho[j] - rhoi;
-              // Fourtakas et al. (2019): subtract the hydrostatic density difference, linearised:
-              // rho0 g.(x_j - x_i) / c0^2 (exact to O((g h / c0^2)^2)).
-              if (fourtakas) drho -= rho0[mi] * (-g.dot(dx)) * inv_c0_sq;
-              diff -= drho * F * Vj;
-            }
-            if (viscous) L.noalias() -= (Vj * F) * vij * dx.transpose();
           }
+          const real pb = sw > 0 ? std::max(spw / sw, 0.0) : 0.0;
+          boundary_pressure_[b] = pb;
+          boundary_.rho[b] = rho0_b * std::pow(1.0 + pb / B_b, 1.0 / gam);
         }
-        for (int k = 0; k < I.fnb_bound_n[c]; ++k) {
-          const auto& blk = I.fnb_bound[c * kNb + k];
-          const Vec<D> xs = xi - I.shifts[blk.shift];
-          for (uint32_t j = blk.begin; j < blk.end; ++j) {
-            Vec<D> dx;
-            real r2 = 0;
-            for (int d = 0; d < D; ++d) {
-              dx[d] = xs[d] - BP[d][j];
-              r2 += dx[d] * dx[d];
-            }
-            if (r2 >= support2 || r2 < 1e-24) continue;
-            const real F = kernel.grad_factor(std::sqrt(r2));
-            const real Vj = boundary_.mass[j] / boundary_.rho[j];
-            div += Vj * F * vi.dot(dx);
-            if (viscous) L.noalias() -= (Vj * F) * vi * dx.transpose();
+      }
+    }
+
+    // Continuity (rho_i sum V_j v_ij . grad W) and density diffusion for one fluid pair.
+    auto continuity = [&](real F, real Vj, real vdotdx, real rhoi, real rhoj, int mi, int mj, const Vec<D>& dx,
+                          real& div, real& diff) {
+      div += Vj * F * vdotdx;
+      if (ddt_coef > 0 && mj == mi) {
+        real drho = rhoj - rhoi;
+        // Fourtakas et al. (2019): subtract the hydrostatic density difference, linearised:
+        // rho0 g.(x_j - x_i) / c0^2 (exact to O((g h / c0^2)^2)).
+        if (fourtakas) drho += rho0[mi] * g.dot(dx) * inv_c0_sq;
+        diff -= drho * F * Vj;
+      }
+    };
+
+    if constexpr (kViscous) {
+      // Pass 1: continuity with density diffusion, and the velocity gradient.
+#pragma omp parallel for schedule(dynamic, 16)
+      for (size_t c = 0; c < ncells; ++c) {
+        for (uint32_t i = I.fcell_begin[c]; i < I.fcell_begin[c + 1]; ++i) {
+          Vec<D> xi, vi;
+          for (int d = 0; d < D; ++d) {
+            xi[d] = P[d][i];
+            vi[d] = V[d][i];
           }
-        }
-        drho_[i] = rhoi * div + ddt_coef * diff;
-        if (viscous) {
+          const real rhoi = rho[i];
+          const int mi = mat[i];
+          real div = 0, diff = 0;
+          Mat<D> L = Mat<D>::Zero();
+          for (int k = 0; k < I.fnb_fluid_n[c]; ++k) {
+            const auto& blk = I.fnb_fluid[c * kNb + k];
+            const Vec<D> xs = xi - I.shifts[blk.shift];
+            for (uint32_t j = blk.begin; j < blk.end; ++j) {
+              Vec<D> dx;
+              real r2 = 0;
+              for (int d = 0; d < D; ++d) {
+                dx[d] = xs[d] - P[d][j];
+                r2 += dx[d] * dx[d];
+              }
+              if (r2 >= support2 || r2 < 1e-24) continue;
+              const real F = kernel.grad_factor(std::sqrt(r2));
+              const real Vj = mass[j] / rho[j];
+              Vec<D> vij;
+              real vdotdx = 0;
+              for (int d = 0; d < D; ++d) {
+                vij[d] = vi[d] - V[d][j];
+                vdotdx += vij[d] * dx[d];
+              }
+              continuity(F, Vj, vdotdx, rhoi, rho[j], mi, mat[j], dx, div, diff);
+              L.noalias() -= (Vj * F) * vij * dx.transpose();
+            }
+          }
+          for (int k = 0; k < I.fnb_bound_n[c]; ++k) {
+            const auto& blk = I.fnb_bound[c * kNb + k];
+            const Vec<D> xs = xi - I.shifts[blk.shift];
+            for (uint32_t j = blk.begin; j < blk.end; ++j) {
+              Vec<D> dx;
+              real r2 = 0;
+              for (int d = 0; d < D; ++d) {
+                dx[d] = xs[d] - BP[d][j];
+                r2 += dx[d] * dx[d];
+              }
+              if (r2 >= support2 || r2 < 1e-24) continue;
+              const real F = kernel.grad_factor(std::sqrt(r2));
+              const real Vj = bmass[j] / brho[j];
+              div += Vj * F * vi.dot(dx);
+              // Wall velocity mirrored (v_b = -v_i): the wall counts twice in the gradient, as it does in the
+              // stress divergence below (tau_b = tau_i), so the viscous power -sum V tau : L is <= 0.
+              L.noalias() -= (2.0 * Vj * F) * vi * dx.transpose();
+            }
+          }
+          drho_[i] = rhoi * div + ddt_coef * diff;
           // Strain rate D = sym(L); deviator with the 3D trace (plane strain in 2D).
           const Mat<D> Ds = 0.5 * (L + L.transpose());
           const real tr3 = Ds.trace() / 3.0;
@@ -574,10 +633,8 @@ void Solver<D>::evaluate(bool compute_dt) {
             for (int b = a; b < D; ++b) t[sym_index<D>(a, b)] = Dd(a, b);  // scaled by 2 mu_eff below
         }
       }
-    }
 
-    // Rheology: one call per material batch.
-    if (viscous) {
+      // Rheology: one call per material batch.
       if (materials_.size() == 1) {
         rheologies_[0]->effective_viscosity(shear_rate_, pressure_, mu_eff_);
       } else {
@@ -600,12 +657,13 @@ void Solver<D>::evaluate(bool compute_dt) {
         const real mu = std::min(mu_eff_[i], cap);
         mu_eff_[i] = mu;
         for (int q = 0; q < NT; ++q) tau_[i][q] *= 2.0 * mu;
-        max_nu = std::max(max_nu, mu / fluid_.rho[i]);
+        max_nu = std::max(max_nu, mu / rho[i]);
       }
     }
 
-    // Pass 2: momentum (pressure, artificial viscosity, rheology stress, gravity).
-#pragma omp parallel for schedule(dynamic, 8) reduction(max : max_acc, max_visc_term)
+    // Pass 2: momentum (pressure, artificial viscosity, rheology stress, gravity); in inviscid scenes also
+    // continuity.
+#pragma omp parallel for schedule(dynamic, 16) reduction(max : max_acc, max_visc_term)
     for (size_t c = 0; c < ncells; ++c) {
       for (uint32_t i = I.fcell_begin[c]; i < I.fcell_begin[c + 1]; ++i) {
         Vec<D> xi, vi;
@@ -613,34 +671,35 @@ void Solver<D>::evaluate(bool compute_dt) {
           xi[d] = P[d][i];
           vi[d] = V[d][i];
         }
-        const real rhoi = fluid_.rho[i];
-        const real pi_term = pressure_[i] / (rhoi * rhoi);
+        const real rhoi = rho[i];
+        const int mi = mat[i];
+        const real pi_term = press[i] / (rhoi * rhoi);
         std::array<real, NT> ti{};
-        if (viscous)
+        if constexpr (kViscous)
           for (int q = 0; q < NT; ++q) ti[q] = tau_[i][q] / (rhoi * rhoi);
         Vec<D> a = Vec<D>::Zero();
-        real visc_max = 0;
-        auto add_pair = [&](const Vec<D>& dx, real r2, const Vec<D>& vij, real mj, real rhoj, real pj,
-                            const std::array<real, NT>* tj) {
-          const real F = kernel.grad_factor(std::sqrt(r2));
+        real visc_max = 0, div = 0, diff = 0;
+        // One pair's momentum contribution; tj is the neighbour's stress over rho_j^2.
+        auto momentum = [&](real F, const Vec<D>& dx, real r2, real vdotdx, real mj, real rhoj, real pj,
+                            const std::array<real, NT>& tj) {
           real pterm = pi_term + pj / (rhoj * rhoj);
-          const real vdotdx = vij.dot(dx);
           const real mu_ij = h * vdotdx / (r2 + eta2);
           visc_max = std::max(visc_max, std::abs(mu_ij));
-          if (alpha > 0 && vdotdx < 0) pterm += -alpha * c0 * mu_ij / (0.5 * (rhoi + rhoj));
+          if (alpha > 0 && vdotdx < 0) pterm -= alpha * c0 * mu_ij / (0.5 * (rhoi + rhoj));
           a -= (mj * pterm * F) * dx;
-          if (viscous) {
+          if constexpr (kViscous) {
             // (tau_i/rho_i^2 + tau_j/rho_j^2) . grad W, grad W = F dx
             for (int p = 0; p < D; ++p) {
               real s = 0;
               for (int q = 0; q < D; ++q) {
                 const int k = sym_index<D>(p, q);
-                s += (ti[k] + (*tj)[k] / (rhoj * rhoj)) * dx[q];
+                s += (ti[k] + tj[k]) * dx[q];
               }
               a[p] += mj * F * s;
             }
           }
         };
+        std::array<real, NT> tj{};
         for (int k = 0; k < I.fnb_fluid_n[c]; ++k) {
           const auto& blk = I.fnb_fluid[c * kNb + k];
           const Vec<D> xs = xi - I.shifts[blk.shift];
@@ -652,15 +711,21 @@ void Solver<D>::evaluate(bool compute_dt) {
               r2 += dx[d] * dx[d];
             }
             if (r2 >= support2 || r2 < 1e-24) continue;
-            Vec<D> vij;
-            for (int d = 0; d < D; ++d) vij[d] = vi[d] - V[d][j];
-            add_pair(dx, r2, vij, fluid_.mass[j], fluid_.rho[j], pressure_[j], viscous ? &tau_[j] : nullptr);
+            const real F = kernel.grad_factor(std::sqrt(r2));
+            real vdotdx = 0;
+            for (int d = 0; d < D; ++d) vdotdx += (vi[d] - V[d][j]) * dx[d];
+            const real rhoj = rho[j];
+            if constexpr (kViscous) {
+              const real inv = 1.0 / (rhoj * rhoj);
+              for (int q = 0; q < NT; ++q) tj[q] = tau_[j][q] * inv;
+            } else {
+              continuity(F, mass[j] / rhoj, vdotdx, rhoi, rhoj, mi, mat[j], dx, div, diff);
+            }
+            momentum(F, dx, r2, vdotdx, mass[j], rhoj, press[j], tj);
           }
         }
         // Boundary neighbours: no-slip (v_b = 0), DBC pressure; the wall's stress mirrors the fluid's
         // (tau_b = tau_i), so wall shear comes from the velocity gradient measured against v_b = 0.
-        std::array<real, NT> tb{};
-        if (viscous) tb = tau_[i];
         for (int k = 0; k < I.fnb_bound_n[c]; ++k) {
           const auto& blk = I.fnb_bound[c * kNb + k];
           const Vec<D> xs = xi - I.shifts[blk.shift];
@@ -672,18 +737,28 @@ void Solver<D>::evaluate(bool compute_dt) {
               r2 += dx[d] * dx[d];
             }
             if (r2 >= support2 || r2 < 1e-24) continue;
-            add_pair(dx, r2, vi, boundary_.mass[j], boundary_.rho[j], boundary_pressure_[j], &tb);
+            const real F = kernel.grad_factor(std::sqrt(r2));
+            const real vdotdx = vi.dot(dx);
+            const real rhob = brho[j];
+            if constexpr (kViscous) {
+              const real inv = 1.0 / (rhob * rhob);
+              for (int q = 0; q < NT; ++q) tj[q] = tau_[i][q] * inv;
+            } else {
+              div += bmass[j] / rhob * F * vdotdx;
+            }
+            momentum(F, dx, r2, vdotdx, bmass[j], rhob, bpress[j], tj);
           }
         }
+        if constexpr (!kViscous) drho_[i] = rhoi * div + ddt_coef * diff;
         a += g;
         for (int d = 0; d < D; ++d) acc_[d][i] = a[d];
-        max_acc = std::max(max_acc, a.norm());
+        max_acc = std::max(max_acc, a.squaredNorm());
         max_visc_term = std::max(max_visc_term, visc_max);
       }
     }
 
-    // Boundary particles next to fluid: DBC continuity, dρ_b/dt = ρ_b Σ V_j (0 - v_j)·∇W.
-#pragma omp parallel for schedule(dynamic, 8)
+    // Boundary particles next to fluid: DBC continuity, drho_b/dt = rho_b sum V_j (0 - v_j) . grad W.
+#pragma omp parallel for schedule(dynamic, 16)
     for (size_t a = 0; a < nact; ++a) {
       const uint32_t cb = I.active_bcells[a];
       for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b) {
@@ -702,13 +777,21 @@ void Solver<D>::evaluate(bool compute_dt) {
             }
             if (r2 >= support2 || r2 < 1e-24) continue;
             for (int d = 0; d < D; ++d) vdotdx -= V[d][j] * dx[d];
-            div += fluid_.mass[j] / fluid_.rho[j] * kernel.grad_factor(std::sqrt(r2)) * vdotdx;
+            div += mass[j] / rho[j] * kernel.grad_factor(std::sqrt(r2)) * vdotdx;
           }
         }
-        boundary_drho_[b] = boundary_.rho[b] * div;
+        boundary_drho_[b] = brho[b] * div;
       }
     }
+  };
+
+  with_kernel<D>(config_.kernel, h, [&](auto kernel) {
+    if (viscous)
+      interact.template operator()<true>(kernel);
+    else
+      interact.template operator()<false>(kernel);
   });
+  max_acc = std::sqrt(max_acc);
 
   stats_.active_boundary = 0;
   for (uint32_t cb : I.active_bcells) stats_.active_boundary += I.bcell_begin[cb + 1] - I.bcell_begin[cb];

@@ -1,5 +1,7 @@
 #include "runout/scenarios/scene.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -33,6 +35,7 @@ class Fields {
     }
   }
   std::string at(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+  const std::string& path() const { return path_; }
   bool has(const std::string& key) const { return j_.contains(key) && !j_.at(key).is_null(); }
   const json& raw(const std::string& key) const {
     if (!has(key)) throw SceneError(at(key), "missing (required)");
@@ -41,8 +44,8 @@ class Fields {
 
   // A finite number in [lo, hi] (open ends when the *_open flags are set).
   real number(const std::string& key, real lo, real hi, bool lo_open = false, bool hi_open = false) const {
-    const json& v = raw(key);
-    return check_number(v, at(key), lo, hi, lo_open, hi_open);
+    if (!has(key)) throw SceneError(at(key), "missing (required: a number in " + range(lo, hi, lo_open, hi_open) + ")");
+    return check_number(j_.at(key), at(key), lo, hi, lo_open, hi_open);
   }
   real number_or(const std::string& key, real fallback, real lo, real hi, bool lo_open = false,
                  bool hi_open = false) const {
@@ -59,6 +62,7 @@ class Fields {
     return x;
   }
   std::string string(const std::string& key, const std::vector<std::string>& accepted = {}) const {
+    if (!has(key) && !accepted.empty()) throw SceneError(at(key), "missing (required: one of " + join(accepted) + ")");
     const json& v = raw(key);
     if (!v.is_string()) throw SceneError(at(key), "must be a string");
     const std::string s = v.get<std::string>();
@@ -76,6 +80,9 @@ class Fields {
   }
   // A vector of exactly n finite numbers.
   std::vector<real> vector(const std::string& key, int n, real lo = -1e7, real hi = 1e7) const {
+    if (!has(key))
+      throw SceneError(at(key), "missing (required: an array of " + std::to_string(n) + " numbers in " +
+                                    range(lo, hi, false, false) + ")");
     const json& v = raw(key);
     if (!v.is_array() || static_cast<int>(v.size()) != n)
       throw SceneError(at(key), "must be an array of " + std::to_string(n) + " numbers");
@@ -85,6 +92,14 @@ class Fields {
     return out;
   }
 
+  static std::string join(const std::vector<std::string>& names) {
+    std::string list;
+    for (const auto& a : names) list += (list.empty() ? "" : ", ") + a;
+    return list;
+  }
+  static std::string range(real lo, real hi, bool lo_open, bool hi_open) {
+    return std::string(lo_open ? "(" : "[") + fmt(lo) + ", " + fmt(hi) + (hi_open ? ")" : "]");
+  }
   static void check_choice(const std::string& field, const std::string& s, const std::vector<std::string>& accepted) {
     if (accepted.empty()) return;
     for (const auto& a : accepted)
@@ -94,12 +109,11 @@ class Fields {
     throw SceneError(field, "unknown value '" + s + "' (accepted: " + list + ")");
   }
   static real check_number(const json& v, const std::string& field, real lo, real hi, bool lo_open, bool hi_open) {
-    const std::string range =
-        std::string(lo_open ? "(" : "[") + fmt(lo) + ", " + fmt(hi) + (hi_open ? ")" : "]");
-    if (!v.is_number()) throw SceneError(field, "must be a number in " + range);
+    const std::string r = range(lo, hi, lo_open, hi_open);
+    if (!v.is_number()) throw SceneError(field, "must be a number in " + r);
     const real x = v.get<double>();
     if (!std::isfinite(x) || (lo_open ? x <= lo : x < lo) || (hi_open ? x >= hi : x > hi))
-      throw SceneError(field, "must be a number in " + range + " (got " + fmt(x) + ")");
+      throw SceneError(field, "must be a number in " + r + " (got " + fmt(x) + ")");
     return x;
   }
 
@@ -148,6 +162,8 @@ FaceMask<D> parse_faces(const Fields& f, const std::string& key, FaceMask<D> mas
 template <int D>
 OrientedBox<D> parse_box(const Fields& f) {
   OrientedBox<D> box;
+  if ((f.has("min") || f.has("max")) && (f.has("origin") || f.has("size") || f.has("angle")))
+    throw SceneError(f.path(), "give the box either as min/max or as origin/size/angle, not both");
   if (f.has("min") || f.has("max")) {
     const Vec<D> lo = to_vec<D>(f.vector("min", D));
     const Vec<D> hi = to_vec<D>(f.vector("max", D));
@@ -163,6 +179,54 @@ OrientedBox<D> parse_box(const Fields& f) {
     box.angle_deg = f.number_or("angle", 0.0, -90.0, 90.0);
   }
   return box;
+}
+
+// Lattice points of a box of extents e (the same floor rule as the geometry), for estimates.
+real lattice_count(const std::vector<real>& e, real dp) {
+  real n = 1;
+  for (real x : e) n *= std::max<real>(0.0, std::floor(x / dp + 1e-9));
+  return n;
+}
+
+// Estimate of the wall particles of one boundary object, from its JSON before validation (0 if unreadable:
+// validation then refuses it). Tanks: the walls around the inside, open top; blocks: a shell `layers` deep;
+// planes and flumes: the bed slab (and the flume's side walls).
+real boundary_estimate(const json& b, int D, real dp) {
+  auto num = [&](const char* key, real fallback) {
+    return b.contains(key) && b[key].is_number() ? b[key].get<double>() : fallback;
+  };
+  auto extents = [&]() {
+    std::vector<real> e(D, 0.0);
+    for (int d = 0; d < D; ++d) {
+      if (b.contains("size") && b["size"].is_array() && b["size"].size() > size_t(d) && b["size"][d].is_number())
+        e[d] = b["size"][d].get<double>();
+      else if (b.contains("min") && b.contains("max") && b["min"].is_array() && b["max"].is_array() &&
+               b["min"].size() > size_t(d) && b["max"].size() > size_t(d) && b["min"][d].is_number() &&
+               b["max"][d].is_number())
+        e[d] = b["max"][d].get<double>() - b["min"][d].get<double>();
+    }
+    return e;
+  };
+  const real layers = std::clamp<real>(num("layers", 3), 1, 10);
+  const std::string type = b.contains("type") && b["type"].is_string() ? b["type"].get<std::string>() : "";
+  const real t = layers * dp;
+  if (type == "tank") {
+    std::vector<real> inner = extents(), outer = inner;
+    for (int d = 0; d < D; ++d) outer[d] += (d == D - 1 ? 1 : 2) * t;
+    return lattice_count(outer, dp) - lattice_count(inner, dp);
+  }
+  if (type == "block") {
+    std::vector<real> outer = extents(), inner = outer;
+    for (auto& x : inner) x = std::max<real>(0.0, x - 2 * t);
+    return lattice_count(outer, dp) - lattice_count(inner, dp);
+  }
+  if (type == "plane" || type == "flume") {
+    const real length = num("length", 0), width = D == 3 ? num("width", 0) : dp;
+    real n = lattice_count({length, width, t}, dp);
+    if (type == "flume" && D == 3) n += 2 * lattice_count({length, t, t + num("wall_height", 0)}, dp);
+    return n;
+  }
+  return 0.0;
 }
 
 real box_volume_particles(const json& j, int D, real dp) {
@@ -208,6 +272,7 @@ Scene build(const json& j, Scene scene) {
   g_mag = std::sqrt(g_mag);
 
   // Materials (validated by the engine's rheology factories, which name the field).
+  if (!top.has("materials")) throw SceneError("materials", "missing (required: an array of 1 to 16 materials)");
   const json& mats = top.raw("materials");
   if (!mats.is_array() || mats.empty() || mats.size() > 16)
     throw SceneError("materials", "must be an array of 1 to 16 materials");
@@ -246,9 +311,10 @@ Scene build(const json& j, Scene scene) {
     Fields lim(j.contains("limits") ? j["limits"] : json::object(), "limits", {"max_particles"});
     scene.max_particles = lim.integer("max_particles", scene.max_particles, 1, 200'000'000);
     real est = 0;
-    for (const char* key : {"fluid", "boundaries"})
-      if (j.contains(key) && j[key].is_array())
-        for (const auto& b : j[key]) est += box_volume_particles(b, D, dp);
+    if (j.contains("fluid") && j["fluid"].is_array())
+      for (const auto& b : j["fluid"]) est += box_volume_particles(b, D, dp);
+    if (j.contains("boundaries") && j["boundaries"].is_array())
+      for (const auto& b : j["boundaries"]) est += boundary_estimate(b, D, dp);
     if (est > static_cast<real>(scene.max_particles))
       throw SceneError("dp", "the geometry at dp = " + fmt(dp) + " m needs about " + fmt(std::round(est)) +
                                  " particles, over limits.max_particles = " + std::to_string(scene.max_particles) +
@@ -256,6 +322,7 @@ Scene build(const json& j, Scene scene) {
   }
 
   // Fluid blocks.
+  if (!top.has("fluid")) throw SceneError("fluid", "missing (required: a non-empty array of fluid blocks)");
   const json& fluid = top.raw("fluid");
   if (!fluid.is_array() || fluid.empty()) throw SceneError("fluid", "must be a non-empty array of fluid blocks");
   real fluid_top = -1e300, fluid_bottom = 1e300;
@@ -270,7 +337,11 @@ Scene build(const json& j, Scene scene) {
     f.string_or("shape", "box", {"box"});
     const OrientedBox<D> box = parse_box<D>(f);
     const std::string mat = f.string("material");
-    if (!material_index.count(mat)) throw SceneError(f.at("material"), "no material named '" + mat + "'");
+    if (!material_index.count(mat)) {
+      std::vector<std::string> names;
+      for (const auto& m : setup.materials) names.push_back(m.name);
+      throw SceneError(f.at("material"), "no material named '" + mat + "' (defined: " + Fields::join(names) + ")");
+    }
     Lattice<D> lat = fill_box<D>(box, dp);
     if (lat.points.empty()) throw SceneError(path, "block is thinner than dp = " + fmt(dp) + " m");
     for (const auto& p : lat.points) {
@@ -289,10 +360,18 @@ Scene build(const json& j, Scene scene) {
     if (!bs.is_array()) throw SceneError("boundaries", "must be an array of boundary objects");
     for (size_t k = 0; k < bs.size(); ++k) {
       const std::string path = "boundaries[" + std::to_string(k) + "]";
-      Fields f(bs[k], path,
-               {"type", "tag", "min", "max", "origin", "size", "angle", "layers", "open", "length", "width",
-                "wall_height"});
-      const std::string type = f.string("type", {"tank", "block", "plane", "flume"});
+      const std::string type =
+          Fields(bs[k], path,
+                 {"type", "tag", "min", "max", "origin", "size", "angle", "layers", "open", "length", "width",
+                  "wall_height"})
+              .string("type", {"tank", "block", "plane", "flume"});
+      std::set<std::string> allowed = {"type", "tag", "layers", "angle"};
+      if (type == "tank" || type == "block") allowed.insert({"min", "max", "origin", "size"});
+      if (type == "tank") allowed.insert("open");
+      if (type == "plane" || type == "flume") allowed.insert({"origin", "length"});
+      if (D == 3 && (type == "plane" || type == "flume")) allowed.insert("width");
+      if (D == 3 && type == "flume") allowed.insert("wall_height");
+      Fields f(bs[k], path, allowed);
       const std::string tag_name = f.string_or("tag", type + std::to_string(k));
       const uint32_t tag = static_cast<uint32_t>(scene.boundary_tags.size());
       scene.boundary_tags.push_back(tag_name);
@@ -350,11 +429,52 @@ Scene build(const json& j, Scene scene) {
     }
   }
 
+  // Fluid must start outside every wall (inside one it leaks on the first step) and blocks must not overlap.
+  for (size_t k = 0; k < pending.size(); ++k) {
+    for (const auto& p : pending[k].lattice.points) {
+      for (const auto& r : setup.leak_regions) {
+        if (!r.contains(p)) continue;
+        std::ostringstream s;
+        s << "a particle at (";
+        for (int d = 0; d < D; ++d) s << (d ? ", " : "") << p[d];
+        s << ") m starts inside the wall of boundaries[" << r.tag - 1 << "] ('" << scene.boundary_tags[r.tag]
+          << "'): fluid must start outside walls";
+        throw SceneError("fluid[" + std::to_string(k) + "]", s.str());
+      }
+    }
+  }
+  if (pending.size() > 1) {
+    // Cells of size dp: two particles closer than dp/2 are in the same or a neighbouring cell.
+    std::map<std::array<long, D>, std::vector<std::pair<size_t, Vec<D>>>> cells;
+    auto cell_of = [&](const Vec<D>& p) {
+      std::array<long, D> c;
+      for (int d = 0; d < D; ++d) c[d] = static_cast<long>(std::floor(p[d] / dp));
+      return c;
+    };
+    for (size_t k = 0; k < pending.size(); ++k) {
+      for (const auto& p : pending[k].lattice.points) {
+        const auto c = cell_of(p);
+        for (int o = 0; o < (D == 2 ? 9 : 27); ++o) {
+          std::array<long, D> n = c;
+          int rem = o;
+          for (int d = 0; d < D; ++d, rem /= 3) n[d] += rem % 3 - 1;
+          auto it = cells.find(n);
+          if (it == cells.end()) continue;
+          for (const auto& [other, q] : it->second)
+            if (other != k && (q - p).norm() < 0.5 * dp)
+              throw SceneError("fluid[" + std::to_string(k) + "]",
+                               "overlaps fluid[" + std::to_string(other) + "]: fluid blocks must not overlap");
+        }
+        cells[c].push_back({k, p});
+      }
+    }
+  }
+
   // Numerics.
   Fields num(j.contains("numerics") ? j["numerics"] : json::object(), "numerics",
              {"kernel", "smoothing_ratio", "speed_of_sound", "speed_of_sound_beta", "depth_scale", "integrator",
               "cfl", "density_diffusion", "density_diffusion_delta", "artificial_viscosity", "viscosity_cap",
-              "viscosity_cap_factor", "shear_rate_floor", "min_dt", "boundary_density", "verlet_reset_steps"});
+              "viscosity_cap_factor", "shear_rate_floor", "min_dt", "boundary_density", "verlet_reset_steps", "boundary_pressure"});
   cfg.kernel = kernel_from_name(num.string_or("kernel", "wendland", kernel_names()));
   cfg.smoothing_length = num.number_or("smoothing_ratio", 1.5, 1.0, 3.0) * dp;
   const std::string integ = num.string_or("integrator", "symplectic", {"symplectic", "verlet"});
@@ -384,6 +504,9 @@ Scene build(const json& j, Scene scene) {
   cfg.viscosity_cap_factor = num.number_or("viscosity_cap_factor", 1.0, 0.0, 1e6, true);
   cfg.shear_rate_floor = num.number_or("shear_rate_floor", 1e-6, 0.0, 1e3, true);
   cfg.min_dt = num.number_or("min_dt", 1e-8, 0.0, 1.0, true);
+  cfg.boundary_pressure = num.string_or("boundary_pressure", "dbc", {"dbc", "extrapolated"}) == "extrapolated"
+                              ? BoundaryPressure::extrapolated
+                              : BoundaryPressure::dbc;
   cfg.boundary_density = num.number_or("boundary_density", setup.materials[0].density, 0.0, 1e5, true);
 
   // Fluid particles, with a hydrostatic initial density (less start-up shock than rho0 everywhere).
@@ -436,6 +559,8 @@ Scene build(const json& j, Scene scene) {
       const json& p = dom.raw("periodic");
       if (!p.is_array() || p.size() != static_cast<size_t>(D))
         throw SceneError("domain.periodic", "must be an array of " + std::to_string(D) + " booleans");
+      if (p[D - 1].is_boolean() && p[D - 1].get<bool>())
+        throw SceneError("domain.periodic", "the vertical axis cannot be periodic (its entry must be false)");
       for (int d = 0; d < D; ++d) {
         if (!p[d].is_boolean()) throw SceneError("domain.periodic", "must be an array of booleans");
         cfg.periodic[d] = p[d].get<bool>();
@@ -447,6 +572,19 @@ Scene build(const json& j, Scene scene) {
     }
     FaceMask<D> outflow = parse_faces<D>(dom, "outflow", FaceMask<D>{});
     for (int d = 0; d < D; ++d) cfg.outflow[d] = outflow[d];
+    // Every fluid particle starts inside the domain (above the top is allowed: the top is open).
+    for (size_t i = 0; i < setup.fluid.size(); ++i) {
+      for (int d = 0; d < D; ++d) {
+        const real x = setup.fluid.pos[d][i];
+        if (x < cfg.domain_min[d] || (d < D - 1 && x > cfg.domain_max[d])) {
+          std::ostringstream s;
+          s << "fluid particle at (";
+          for (int e = 0; e < D; ++e) s << (e ? ", " : "") << setup.fluid.pos[e][i];
+          s << ") m is outside the domain: domain.min and domain.max must contain every particle";
+          throw SceneError("domain", s.str());
+        }
+      }
+    }
   }
 
   scene.setup = std::move(setup);
@@ -459,13 +597,14 @@ Scene parse_scene(const std::string& json_text) {
   json j;
   try {
     j = json::parse(json_text);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, and out_of_range for numbers beyond a double (1e400)
     throw SceneError("(json)", std::string("malformed JSON: ") + e.what());
   }
   if (!j.is_object()) throw SceneError("(root)", "a scene must be a JSON object");
   Fields top(j, "", std::set<std::string>(kTopKeys.begin(), kTopKeys.end()));
   Scene scene;
   scene.name = top.string_or("name", "scene");
+  (void)top.string_or("description", "");
   scene.dimensions = static_cast<int>(top.integer("dimensions", 0, 2, 3));
   if (!top.has("dimensions")) throw SceneError("dimensions", "missing (required: 2 or 3)");
   scene.dp = top.number("dp", 1e-4, 100.0);

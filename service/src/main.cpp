@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include <CLI/CLI.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "progress.hpp"
@@ -57,6 +58,7 @@ int cmd_run(const std::string& scene_path, const std::string& out_dir, bool snap
 }  // namespace
 
 int main(int argc, char** argv) {
+  spdlog::set_default_logger(spdlog::stderr_color_mt("runout"));  // messages on stderr, like the progress bar
   CLI::App app{"Runout: debris-flow hazard-mitigation design studies with SPH"};
   app.set_version_flag("--version", std::string(RUNOUT_VERSION));
   app.require_subcommand(1);
@@ -65,7 +67,7 @@ int main(int argc, char** argv) {
   bool snapshots = false, quiet = false;
   int threads = 0;
   auto* run = app.add_subcommand("run", "Run one scene and write metrics.json, series/ and snapshots/");
-  run->add_option("scene", scene_path, "Scene file (JSON)")->required()->check(CLI::ExistingFile);
+  run->add_option("scene", scene_path, "Scene file (JSON)")->required();  // unreadable: refused by load_scene (2)
   run->add_option("--out,-o", out_dir, "Output directory (default runs/<scene name>)");
   run->add_flag("--snapshots", snapshots, "Write particle snapshots (.vtp) under OUT/snapshots/");
   run->add_option("--threads,-j", threads, "OpenMP threads (default: all cores)")->check(CLI::Range(0, 1024));

@@ -19,6 +19,10 @@ namespace runout {
 
 enum class Integrator { symplectic, verlet };
 enum class DensityDiffusion { none, molteni, fourtakas };
+// How boundary particles get their pressure: `dbc` carries a density by the continuity equation (Crespo et al.
+// 2007); `extrapolated` takes it each step from the fluid next to them (Adami, Hu & Adams 2012, with the
+// hydrostatic term), which has no memory and so no pressure cushion under a thinning, spreading layer.
+enum class BoundaryPressure { dbc, extrapolated };
 
 struct SolverConfig {
   real dp = 0.01;                   // initial particle spacing [m]
@@ -40,6 +44,7 @@ struct SolverConfig {
   real min_dt = 1e-8;               // a step below this stops the run [s]
   std::array<real, 3> gravity{0.0, 0.0, -9.81};  // first D components are used
   real boundary_density = 1000.0;   // reference density of boundary particles [kg/m^3]
+  BoundaryPressure boundary_pressure = BoundaryPressure::dbc;
   // Domain: leaving through a closed face is a leak (error), through an open face an outflow (removed and
   // counted). A periodic axis wraps; the vertical top is always open without removal.
   std::array<real, 3> domain_min{-1e30, -1e30, -1e30};

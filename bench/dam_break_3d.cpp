@@ -1,0 +1,116 @@
+// 3D dam break on a pillar (DualSPHysics CaseDambreak geometry, scenarios/validation/dam_break_3d.json):
+// particle-steps per second at several resolutions, OpenMP scaling 1 -> N threads, and the cost of a
+// friction-HBP step relative to a Newtonian one.
+//
+//   build/bench/bench_dam_break_3d [--dp 0.016,0.012,0.0085] [--steps 200] [--warmup 20] [--threads 2]
+//
+// Throughput counts fluid particles x steps (boundary particles do work only next to fluid); the total
+// (fluid + boundary) figure is printed too, since some codes quote that.
+#include <omp.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "runout/scenarios/scene.hpp"
+
+using namespace runout;
+using json = nlohmann::json;
+
+namespace {
+
+struct Result {
+  size_t fluid = 0, boundary = 0;
+  double seconds = 0;
+  long steps = 0;
+  double fluid_rate() const { return fluid * steps / seconds; }
+  double total_rate() const { return (fluid + boundary) * steps / seconds; }
+};
+
+Result measure(const json& scene_json, int threads, int warmup, int steps) {
+  omp_set_num_threads(threads);
+  Scene scene = parse_scene(scene_json.dump());
+  auto& setup = std::get<SceneSetup<3>>(scene.setup);
+  Solver<3> solver(setup);
+  for (int i = 0; i < warmup; ++i) solver.step();
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int i = 0; i < steps; ++i) solver.step();
+  Result r;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.steps = steps;
+  r.fluid = solver.fluid().size();
+  r.boundary = solver.boundary().size();
+  return r;
+}
+
+std::vector<double> parse_list(const char* s) {
+  std::vector<double> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) out.push_back(std::stod(item));
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<double> dps = {0.016, 0.012, 0.0085};
+  int steps = 200, warmup = 20, max_threads = omp_get_num_procs();
+  for (int i = 1; i + 1 < argc; i += 2) {
+    if (!std::strcmp(argv[i], "--dp")) dps = parse_list(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--steps")) steps = std::stoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--warmup")) warmup = std::stoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--threads")) max_threads = std::stoi(argv[i + 1]);
+  }
+  std::ifstream in(std::string(RUNOUT_SOURCE_DIR) + "/scenarios/validation/dam_break_3d.json");
+  json base = json::parse(in);
+
+  std::printf("3D dam break (Verlet, cubic spline, h = 1.732 dp, c0 = 34.3 m/s, CFL 0.2, DBC, alpha 0.1, "
+              "Fourtakas 0.1); %d warm-up + %d timed steps\n\n", warmup, steps);
+  std::printf("%8s %9s %9s %7s | %12s %12s | %12s %12s | %7s\n", "dp [m]", "fluid", "boundary", "threads",
+              "fluid p-s/s", "total p-s/s", "1-thread", "speed-up", "eff.");
+  for (double dp : dps) {
+    json s = base;
+    s["dp"] = dp;
+    const Result one = measure(s, 1, warmup, steps);
+    const Result many = measure(s, max_threads, warmup, steps);
+    const double speedup = many.fluid_rate() / one.fluid_rate();
+    std::printf("%8.4f %9zu %9zu %7d | %12.3e %12.3e | %12.3e %12.2f | %6.0f%%\n", dp, many.fluid, many.boundary,
+                max_threads, many.fluid_rate(), many.total_rate(), one.fluid_rate(), speedup,
+                100.0 * speedup / max_threads);
+    std::fflush(stdout);
+  }
+
+  // Rheology cost: the same scene and step count, inviscid vs Newtonian (stress path) vs friction-HBP.
+  const double dp = dps.size() > 1 ? dps[1] : dps[0];
+  std::printf("\nRheology cost at dp = %.4f m, %d threads (time per step relative to Newtonian):\n", dp, max_threads);
+  struct Case {
+    const char* label;
+    json material;
+  };
+  const std::vector<Case> cases = {
+      {"inviscid (no stress term)", {{"name", "water"}, {"rheology", "newtonian"}, {"density", 1000}, {"viscosity", 0}}},
+      {"newtonian mu = 1e-3", {{"name", "water"}, {"rheology", "newtonian"}, {"density", 1000}, {"viscosity", 1e-3}}},
+      {"friction-hbp phi = 28, m = 100, n = 1.05",
+       {{"name", "water"}, {"rheology", "friction-hbp"}, {"density", 1000}, {"viscosity", 1e-3},
+        {"flow_index", 1.05}, {"regularisation", 100}, {"friction_angle", 28}, {"cohesion", 0}}},
+  };
+  double newtonian_time = 0;
+  std::vector<std::pair<const char*, Result>> results;
+  for (const auto& c : cases) {
+    json s = base;
+    s["dp"] = dp;
+    s["materials"] = json::array({c.material});
+    results.push_back({c.label, measure(s, max_threads, warmup, steps)});
+    if (std::string(c.label).rfind("newtonian", 0) == 0) newtonian_time = results.back().second.seconds;
+  }
+  for (const auto& [label, r] : results)
+    std::printf("  %-42s %10.3e fluid p-s/s   %.2fx\n", label, r.fluid_rate(), r.seconds / newtonian_time);
+  return 0;
+}
