@@ -8,7 +8,7 @@ packages=(
   libeigen3-dev
   libgdal-dev gdal-bin
   libcpp-httplib-dev
-  libsqlite3-dev sqlite3
+  libsqlite3-dev sqlite3 libssl-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev libspdlog-dev
   python-matplotlib-data

@@ -12,6 +12,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "runout/terrain/terrain.hpp"
+
 namespace runout {
 namespace {
 
@@ -90,6 +92,116 @@ void write_vtp(const fs::path& path, const Solver<D>& s) {
   write_atomically(path, o.str());
 }
 
+// series/<type>_<name>.csv, with characters outside [A-Za-z0-9._-] in the name replaced by '_'.
+std::string series_file_name(const MonitorSpec& m) {
+  std::string name = m.name;
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-' && c != '_') c = '_';
+  return m.type + "_" + name + ".csv";
+}
+
+// Terrain runs: inundation rasters and the check that no flow particle is under the ground, inside a wall or
+// off the corridor (the engine knows nothing of the DEM, so this lives here).
+template <int D>
+class TerrainWatch {
+ public:
+  explicit TerrainWatch(const terrain::TerrainModel* model) : model_(model) {
+    if (model_) grid_ = terrain::InundationGrid(*model_);
+  }
+  bool active() const { return model_ != nullptr; }
+  void update(const ParticleArrays<D>& f) {
+    if constexpr (D == 3) {
+      pos_.resize(f.size());
+      vol_.resize(f.size());
+      speed_.resize(f.size());
+      for (size_t i = 0; i < f.size(); ++i) {
+        pos_[i] = Vec<3>(f.pos[0][i], f.pos[1][i], f.pos[2][i]);
+        vol_[i] = f.mass[i] / f.rho[i];
+        speed_[i] = std::sqrt(f.vel[0][i] * f.vel[0][i] + f.vel[1][i] * f.vel[1][i] + f.vel[2][i] * f.vel[2][i]);
+      }
+      grid_.update(pos_, vol_, speed_);
+    }
+  }
+  // Throws SimulationError naming the first misplaced particle and how many there are.
+  void check(const ParticleArrays<D>& f, real t) const {
+    if constexpr (D == 3) {
+      size_t count = 0, first = 0;
+      std::string why;
+      for (size_t i = 0; i < f.size(); ++i) {
+        std::string w = model_->misplaced(Vec<3>(f.pos[0][i], f.pos[1][i], f.pos[2][i]));
+        if (w.empty()) continue;
+        if (count++ == 0) first = i, why = std::move(w);
+      }
+      if (count) {
+        std::ostringstream s;
+        s << count << " fluid particle(s) leaked at t = " << t << " s: particle " << f.id[first] << ' ' << why;
+        throw SimulationError(s.str());
+      }
+    }
+  }
+  const terrain::InundationGrid& grid() const { return grid_; }
+
+ private:
+  const terrain::TerrainModel* model_;
+  terrain::InundationGrid grid_;
+  std::vector<Vec<3>> pos_;
+  std::vector<real> vol_, speed_;
+};
+
+// Rasters (GeoTIFF in the DEM's CRS, aligned with its cells), the map PNG, and the terrain metrics.
+json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::InundationGrid& g,
+                           const OutputSettings& out, const fs::path& dir) {
+  fs::create_directories(dir / "rasters");
+  terrain::write_geotiff((dir / "rasters" / "max_depth.tif").string(), g.max_depth());
+  terrain::write_geotiff((dir / "rasters" / "max_speed.tif").string(), g.max_speed());
+  terrain::write_geotiff((dir / "rasters" / "deposit_depth.tif").string(), g.depth());
+  std::vector<terrain::MapOverlay> overlays(3);
+  overlays[0].r = 20, overlays[0].g = 20, overlays[0].b = 20;  // structures
+  overlays[1].r = 220, overlays[1].g = 40, overlays[1].b = 40;  // protected zones
+  overlays[2].r = 240, overlays[2].g = 160, overlays[2].b = 0;  // release
+  auto line = [](const terrain::Polyline& p, bool close) {
+    std::vector<std::pair<double, double>> out;
+    for (const auto& q : p) out.push_back({q[0], q[1]});
+    if (close && !out.empty()) out.push_back(out.front());
+    return out;
+  };
+  auto closed = [&](const terrain::Polyline& p) { return line(p, true); };
+  for (const auto& st : tm.structures)
+    overlays[0].lines.push_back(line(st.outline, st.kind != terrain::StructureKind::check_dam));
+  for (const auto& z : tm.protected_zones) overlays[1].lines.push_back(closed(z.polygon));
+  overlays[2].lines.push_back(closed(tm.release_polygon));
+  terrain::write_depth_map_png((dir / "rasters" / "max_depth.png").string(), g.terrain(), g.max_depth(),
+                               out.inundation_threshold, overlays);
+  float max_depth = 0, max_speed = 0;
+  for (float v : g.max_depth().values) max_depth = std::max(max_depth, v);
+  for (float v : g.max_speed().values) max_speed = std::max(max_speed, v);
+  json t;
+  t["crs"] = terrain::crs_name(tm.dem.crs_wkt);
+  t["local_origin_m"] = {tm.origin_x, tm.origin_y};
+  t["corridor_area_m2"] = tm.corridor_area;
+  t["modelled_fraction"] = tm.modelled_fraction;
+  t["release_volume_m3"] = tm.release_volume;
+  t["release_depth_m"] = tm.release_depth;
+  json ss = json::array();
+  for (const auto& st : tm.structures)
+    ss.push_back({{"name", st.name},
+                  {"type", terrain::kind_name(st.kind)},
+                  {"tag", st.tag},
+                  {"cut_volume_m3", st.cut_volume},
+                  {"fill_volume_m3", st.fill_volume},
+                  {"crest_elevation_m", st.crest_elevation},
+                  {"storage_capacity_m3", st.storage_capacity}});
+  t["structures"] = ss;
+  t["inundation"] = {{"threshold_m", out.inundation_threshold},
+                     {"inundated_area_m2", g.inundated_area(out.inundation_threshold)},
+                     {"max_depth_m", max_depth},
+                     {"max_speed_m_s", max_speed},
+                     {"cell_size_m", g.max_depth().dx},
+                     {"rasters", {"rasters/max_depth.tif", "rasters/max_speed.tif", "rasters/deposit_depth.tif",
+                                  "rasters/max_depth.png"}}};
+  return t;
+}
+
 template <int D>
 RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOptions& opt) {
   using clock = std::chrono::steady_clock;
@@ -123,13 +235,40 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
   const auto t0 = clock::now();
   auto last_progress = t0;
   long particle_steps = 0;
+  TerrainWatch<D> watch(scene.terrain.get());
+  // Monitors: each writes series/<type>_<name>.csv and its summary into metrics.json.
+  std::vector<std::unique_ptr<Monitor<D>>> monitors;
+  std::vector<std::ostringstream> monitor_rows(scene.monitors.size());
+  for (size_t k = 0; k < scene.monitors.size(); ++k) {
+    try {
+      monitors.push_back(make_monitor<D>(scene.monitors[k], solver));
+    } catch (const std::invalid_argument& e) {
+      throw SceneError("monitors", e.what());
+    }
+    monitor_rows[k] << std::setprecision(9) << "t";
+    for (const auto& c : monitors[k]->columns()) monitor_rows[k] << ',' << c;
+    monitor_rows[k] << '\n';
+  }
+  auto sample_monitors = [&]() {
+    for (size_t k = 0; k < monitors.size(); ++k) {
+      monitor_rows[k] << solver.time();
+      for (real v : monitors[k]->sample(solver)) monitor_rows[k] << ',' << v;
+      monitor_rows[k] << '\n';
+    }
+  };
+  size_t leaked = 0;
   try {
+    if (watch.active()) {
+      watch.check(solver.fluid(), 0.0);
+      watch.update(solver.fluid());
+    }
     if (opt.snapshots) {
       write_vtp(opt.out_dir / "snapshots" / "snapshot_0000.vtp", solver);
       ++snap_index;
       next_snap = snap_dt;
     }
     sample(solver.last_step());
+    sample_monitors();
     next_sample = scene.output.series_interval;
     while (solver.time() < scene.duration) {
       if (opt.stop && opt.stop->load()) {
@@ -138,7 +277,12 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
       }
       particle_steps += static_cast<long>(solver.fluid().size());
       const StepStats& st = solver.step();
+      // A particle moves well under dp in 10 steps (CFL), so it cannot cross a wall between two checks.
+      if (watch.active() && solver.steps() % 10 == 0) watch.check(solver.fluid(), solver.time());
+      for (auto& mon : monitors) mon->after_step(solver);
       if (solver.time() >= next_sample - 1e-12) {
+        sample_monitors();
+        if (watch.active()) watch.update(solver.fluid());
         sample(st);
         const auto e = solver.energy();
         max_ke_excess = std::max(max_ke_excess, e.kinetic - e.potential_released);
@@ -161,7 +305,9 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
   } catch (const SimulationError& e) {
     sum.status = "failed";
     sum.error = e.what();
+    if (sum.error.find("leaked") != std::string::npos) leaked = std::max<size_t>(1, std::strtoul(sum.error.c_str(), nullptr, 10));
   }
+  if (watch.active()) watch.update(solver.fluid());
   sum.wall_seconds = std::chrono::duration<double>(clock::now() - t0).count();
   sum.steps = solver.steps();
   sum.simulated_time = solver.time();
@@ -177,6 +323,8 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
     write_atomically(opt.out_dir / "series" / "final_surface.csv", prof.str());
   }
   write_atomically(opt.out_dir / "series" / "run.csv", series.str());
+  for (size_t k = 0; k < monitors.size(); ++k)
+    write_atomically(opt.out_dir / "series" / series_file_name(scene.monitors[k]), monitor_rows[k].str());
 
   const auto mb = solver.mass_balance();
   const auto e = solver.energy();
@@ -202,11 +350,29 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
                {"final_kg", static_cast<double>(m1)},
                {"outflow_kg", static_cast<double>(mo)},
                {"relative_error", m0 > 0 ? static_cast<double>((m1 + mo - m0) / m0) : 0.0}};
-  m["leaks"] = sum.status == "failed" && sum.error.find("leaked") != std::string::npos ? 1 : 0;
+  m["leaks"] = leaked;
   m["energy"] = {{"kinetic_final_j", e.kinetic},
                  {"potential_released_j", e.potential_released},
                  {"max_kinetic_minus_released_j", max_ke_excess}};
   m["front_x_m"] = front_position(solver.fluid());
+  {
+    // Is the flow at rest? Percentiles of particle speed at the end: a few particles running away (isolated
+    // ones carry no pressure, so no friction) should not hide a bulk that has stopped, nor the reverse.
+    const auto& f = solver.fluid();
+    std::vector<real> speed(f.size());
+    for (size_t i = 0; i < f.size(); ++i) {
+      real v2 = 0;
+      for (int d = 0; d < D; ++d) v2 += f.vel[d][i] * f.vel[d][i];
+      speed[i] = std::sqrt(v2);
+    }
+    std::sort(speed.begin(), speed.end());
+    auto pct = [&](double q) { return speed.empty() ? 0.0 : speed[static_cast<size_t>(q * (speed.size() - 1))]; };
+    const size_t moving = speed.end() - std::upper_bound(speed.begin(), speed.end(), 0.05);
+    m["final_speed"] = {{"p50_m_s", pct(0.5)},
+                        {"p95_m_s", pct(0.95)},
+                        {"max_m_s", pct(1.0)},
+                        {"moving_fraction", speed.empty() ? 0.0 : static_cast<double>(moving) / speed.size()}};
+  }
   m["settings"] = {{"dp_m", cfg.dp},
                    {"smoothing_length_m", cfg.smoothing_length},
                    {"kernel", std::string(kernel_name(cfg.kernel))},
@@ -220,6 +386,14 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
   json tags = json::object();
   for (size_t k = 1; k < scene.boundary_tags.size(); ++k) tags[std::to_string(k)] = scene.boundary_tags[k];
   m["boundary_tags"] = tags;
+  json mons = json::array();
+  for (size_t k = 0; k < monitors.size(); ++k) {
+    json one = {{"name", scene.monitors[k].name}, {"type", scene.monitors[k].type}};
+    for (const auto& [key, value] : monitors[k]->summary()) one[key] = value;
+    mons.push_back(one);
+  }
+  m["monitors"] = mons;
+  if (watch.active()) m["terrain"] = write_terrain_outputs(*scene.terrain, watch.grid(), scene.output, opt.out_dir);
   sum.metrics_json = m.dump(2);
   write_atomically(opt.out_dir / "metrics.json", sum.metrics_json + "\n");
   return sum;

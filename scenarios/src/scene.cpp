@@ -1,5 +1,7 @@
 #include "runout/scenarios/scene.hpp"
 
+#include "runout/terrain/terrain.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -248,10 +250,120 @@ real box_volume_particles(const json& j, int D, real dp) {
 
 const std::vector<std::string> kTopKeys = {"name",   "dimensions", "dp",     "duration", "gravity", "materials",
                                            "numerics", "fluid",    "boundaries", "domain", "output", "limits",
-                                           "description"};
+                                           "description", "terrain", "release", "structures",
+                                           "protected_zones", "monitors"};
+
+// A polyline or polygon: an array of [x, y] map coordinates.
+terrain::Polyline parse_polyline(const json& v, const std::string& field, size_t min_points) {
+  if (!v.is_array() || v.size() < min_points)
+    throw SceneError(field, "must be an array of at least " + std::to_string(min_points) + " [x, y] points (map coordinates, m)");
+  terrain::Polyline out;
+  for (size_t k = 0; k < v.size(); ++k) {
+    const std::string f = field + "[" + std::to_string(k) + "]";
+    if (!v[k].is_array() || v[k].size() != 2) throw SceneError(f, "must be an [x, y] pair");
+    out.push_back({Fields::check_number(v[k][0], f + "[0]", -1e8, 1e8, false, false),
+                   Fields::check_number(v[k][1], f + "[1]", -1e8, 1e8, false, false)});
+  }
+  return out;
+}
+
+// The terrain, release, structures and protected_zones sections (docs/scene-format.md, "Terrain scenes").
+terrain::TerrainSpec parse_terrain_spec(const json& j, const std::filesystem::path& base_dir) {
+  terrain::TerrainSpec spec;
+  Fields t(j.at("terrain"), "terrain", {"dem", "crs", "resolution", "layers", "corridor"});
+  std::filesystem::path dem = t.string("dem");
+  if (dem.is_relative() && !base_dir.empty()) dem = base_dir / dem;
+  spec.dem_path = dem.string();
+  spec.dem.target_crs = t.string_or("crs", "");
+  spec.dem.resolution = t.number_or("resolution", 0.0, 0.0, 1e4);
+  spec.layers = static_cast<int>(t.integer("layers", 3, 2, 10));
+  if (t.has("corridor")) {
+    Fields c(t.raw("corridor"), "terrain.corridor", {"travel_angle", "buffer", "polygon"});
+    spec.corridor.travel_angle_deg = c.number_or("travel_angle", 11.0, 0.0, 60.0, true);
+    spec.corridor.buffer_m = c.number_or("buffer", 0.0, 0.0, 1e5);
+    if (c.has("polygon")) spec.corridor.polygon = parse_polyline(c.raw("polygon"), c.at("polygon"), 3);
+  }
+  if (!j.contains("release")) throw SceneError("release", "missing (required in a terrain scene: polygon, depth or volume, material)");
+  Fields r(j.at("release"), "release", {"polygon", "depth", "volume", "material"});
+  spec.release.polygon = parse_polyline(r.raw("polygon"), r.at("polygon"), 3);
+  if (r.has("depth") == r.has("volume"))
+    throw SceneError("release", "give exactly one of depth (m, in (0, 1000]) or volume (m3, in (0, 1e9])");
+  spec.release.depth = r.number_or("depth", 0.0, 0.0, 1000.0, true);
+  spec.release.volume = r.number_or("volume", 0.0, 0.0, 1e9, true);
+  if (j.contains("structures")) {
+    const json& ss = j.at("structures");
+    if (!ss.is_array()) throw SceneError("structures", "must be an array of structures");
+    std::set<std::string> names;
+    for (size_t k = 0; k < ss.size(); ++k) {
+      const std::string path = "structures[" + std::to_string(k) + "]";
+      const std::string type = Fields(ss[k], path,
+                                      {"type", "name", "axis", "polygon", "crest_height", "thickness", "slit",
+                                       "elevation", "gradient", "depth", "wall_height", "wall_thickness",
+                                       "open_edges"})
+                                   .string("type", {"check_dam", "deposition_area", "retention_basin"});
+      std::set<std::string> allowed = {"type", "name"};
+      if (type == "check_dam") allowed.insert({"axis", "crest_height", "thickness", "slit"});
+      if (type == "deposition_area") allowed.insert({"polygon", "elevation", "gradient"});
+      if (type == "retention_basin") allowed.insert({"polygon", "depth", "wall_height", "wall_thickness", "open_edges"});
+      Fields f(ss[k], path, allowed);
+      terrain::StructureSpec st;
+      st.name = f.string("name");
+      if (!names.insert(st.name).second) throw SceneError(f.at("name"), "duplicate structure name '" + st.name + "'");
+      if (type == "check_dam") {
+        st.kind = terrain::StructureKind::check_dam;
+        st.line = parse_polyline(f.raw("axis"), f.at("axis"), 2);
+        st.crest_height = f.number("crest_height", 0.0, 200.0, true);
+        st.thickness = f.number("thickness", 0.0, 100.0, true);
+        if (f.has("slit")) {
+          Fields sl(f.raw("slit"), f.at("slit"), {"width", "bottom"});
+          st.slit_width = sl.number("width", 0.0, 1000.0, true);
+          st.slit_bottom = sl.number_or("bottom", 0.0, 0.0, 200.0);
+          if (st.slit_bottom >= st.crest_height)
+            throw SceneError(sl.at("bottom"), "must be below crest_height (" + fmt(st.crest_height) + " m)");
+        }
+      } else if (type == "deposition_area") {
+        st.kind = terrain::StructureKind::deposition_area;
+        st.line = parse_polyline(f.raw("polygon"), f.at("polygon"), 3);
+        if (f.has("elevation")) st.elevation = f.number("elevation", -500.0, 9000.0);
+        st.gradient = f.number_or("gradient", 0.0, 0.0, 1.0);
+      } else {
+        st.kind = terrain::StructureKind::retention_basin;
+        st.line = parse_polyline(f.raw("polygon"), f.at("polygon"), 3);
+        st.depth = f.number_or("depth", 0.0, 0.0, 100.0);
+        st.wall_height = f.number_or("wall_height", 0.0, 0.0, 100.0);
+        if (!(st.depth > 0) && !(st.wall_height > 0))
+          throw SceneError(path, "a retention basin needs depth > 0 m or wall_height > 0 m (or both)");
+        if (st.wall_height > 0) st.wall_thickness = f.number("wall_thickness", 0.0, 100.0, true);
+        if (f.has("open_edges")) {
+          const json& oe = f.raw("open_edges");
+          if (!oe.is_array()) throw SceneError(f.at("open_edges"), "must be an array of edge indices");
+          std::vector<int> edges;
+          for (size_t q = 0; q < oe.size(); ++q) {
+            const std::string ef = f.at("open_edges") + "[" + std::to_string(q) + "]";
+            if (!oe[q].is_number_integer() || oe[q].get<long>() < 0 || oe[q].get<long>() >= static_cast<long>(st.line.size()))
+              throw SceneError(ef, "must be an edge index in [0, " + std::to_string(st.line.size() - 1) +
+                                       "] (edge k joins vertex k to vertex k+1)");
+            edges.push_back(oe[q].get<int>());
+          }
+          st.open_edges = edges;
+        }
+      }
+      spec.structures.push_back(std::move(st));
+    }
+  }
+  if (j.contains("protected_zones")) {
+    const json& zs = j.at("protected_zones");
+    if (!zs.is_array()) throw SceneError("protected_zones", "must be an array of {name, polygon}");
+    for (size_t k = 0; k < zs.size(); ++k) {
+      Fields z(zs[k], "protected_zones[" + std::to_string(k) + "]", {"name", "polygon"});
+      spec.protected_zones.push_back({z.string("name"), parse_polyline(z.raw("polygon"), z.at("polygon"), 3)});
+    }
+  }
+  return spec;
+}
 
 template <int D>
-Scene build(const json& j, Scene scene) {
+Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
   Fields top(j, "", std::set<std::string>(kTopKeys.begin(), kTopKeys.end()));
   SceneSetup<D> setup;
   SolverConfig& cfg = setup.config;
@@ -321,10 +433,29 @@ Scene build(const json& j, Scene scene) {
                                  " (raise dp or the limit)");
   }
 
+  // Terrain: built first (it validates the DEM, release and structures), its release joins the fluid.
+  std::shared_ptr<terrain::TerrainModel> tmodel;
+  std::string release_material;
+  for (const char* key : {"release", "structures", "protected_zones"})
+    if (top.has(key) && !top.has("terrain")) throw SceneError(key, "needs a terrain section");
+  if (top.has("terrain")) {
+    if (D != 3) throw SceneError("dimensions", "a terrain scene must have dimensions = 3");
+    const terrain::TerrainSpec spec = parse_terrain_spec(j, base_dir);
+    release_material = Fields(j.at("release"), "release", {"polygon", "depth", "volume", "material"}).string("material");
+    if (!material_index.count(release_material))
+      throw SceneError("release.material", "no material named '" + release_material + "'");
+    try {
+      tmodel = std::make_shared<terrain::TerrainModel>(terrain::build_terrain(spec, dp, scene.max_particles));
+    } catch (const terrain::TerrainError& e) {
+      const std::string what = e.what();
+      throw SceneError(e.field, what.substr(std::min(what.size(), e.field.size() + 2)));
+    }
+  }
+
   // Fluid blocks.
-  if (!top.has("fluid")) throw SceneError("fluid", "missing (required: a non-empty array of fluid blocks)");
-  const json& fluid = top.raw("fluid");
-  if (!fluid.is_array() || fluid.empty()) throw SceneError("fluid", "must be a non-empty array of fluid blocks");
+  if (!top.has("fluid") && !tmodel) throw SceneError("fluid", "missing (required: a non-empty array of fluid blocks)");
+  const json& fluid = top.has("fluid") ? top.raw("fluid") : json::array();
+  if (!fluid.is_array() || (fluid.empty() && !tmodel)) throw SceneError("fluid", "must be a non-empty array of fluid blocks");
   real fluid_top = -1e300, fluid_bottom = 1e300;
   struct PendingFluid {
     Lattice<D> lattice;
@@ -350,11 +481,34 @@ Scene build(const json& j, Scene scene) {
     }
     pending.push_back({std::move(lat), material_index[mat]});
   }
+  if (tmodel) {
+    Lattice<D> lat;
+    for (size_t q = 0; q < tmodel->fluid.size(); ++q) {
+      Vec<D> p;
+      for (int d = 0; d < D; ++d) p[d] = tmodel->fluid[q][d];
+      lat.points.push_back(p);
+      lat.depth.push_back(tmodel->fluid_depth[q]);
+      fluid_top = std::max(fluid_top, p[D - 1] + 0.5 * dp);
+      fluid_bottom = std::min(fluid_bottom, p[D - 1] - 0.5 * dp);
+    }
+    pending.push_back({std::move(lat), material_index[release_material]});
+  }
 
   // Boundaries.
   scene.boundary_tags = {""};
   std::vector<std::pair<Vec<D>, uint32_t>> bparticles;
   real bottom = fluid_bottom;
+  if (tmodel) {
+    // Tag 1 is the ground; each walled structure has its own tag, in order.
+    scene.boundary_tags.push_back("terrain");
+    for (const auto& st : tmodel->structures)
+      if (st.tag) scene.boundary_tags.push_back(st.name);
+    for (size_t q = 0; q < tmodel->boundary.size(); ++q) {
+      Vec<D> p;
+      for (int d = 0; d < D; ++d) p[d] = tmodel->boundary[q][d];
+      bparticles.push_back({p, tmodel->boundary_tag[q]});
+    }
+  }
   if (top.has("boundaries")) {
     const json& bs = top.raw("boundaries");
     if (!bs.is_array()) throw SceneError("boundaries", "must be an array of boundary objects");
@@ -488,10 +642,17 @@ Scene build(const json& j, Scene scene) {
   cfg.density_diffusion_delta = num.number_or("density_diffusion_delta", 0.1, 0.0, 1.0);
   cfg.artificial_viscosity = num.number_or("artificial_viscosity", 0.0, 0.0, 10.0);
   // c0: explicit, or beta sqrt(g H) with H the depth scale (default: fluid top to the lowest particle).
-  const real depth_scale = num.number_or("depth_scale", std::max(fluid_top - bottom, dp), 0.0, 1e5, true);
+  // On terrain the lowest particle is far down the valley, not under the flow. There the speed scale is the
+  // energy line's: a block sliding at the travel angle reaches sqrt(2 g E) with E the energy height, and
+  // c0 = beta max(sqrt(g d), sqrt(2 g E)) keeps the Mach number under 1/beta (conservative: the real flow
+  // loses more than the travel angle says). An explicit speed_of_sound trades that margin for speed.
+  const real default_depth = tmodel ? std::max<real>(tmodel->release_depth, dp) : std::max(fluid_top - bottom, dp);
+  const real depth_scale = num.number_or("depth_scale", default_depth, 0.0, 1e5, true);
   const real beta = num.number_or("speed_of_sound_beta", 10.0, 1.0, 100.0);
-  cfg.speed_of_sound = num.has("speed_of_sound") ? num.number("speed_of_sound", 0.0, 1e5, true)
-                                                 : beta * std::sqrt(std::max(g_mag, 1e-3) * depth_scale);
+  real speed_scale = std::sqrt(std::max(g_mag, 1e-3) * depth_scale);
+  if (tmodel && !num.has("depth_scale"))
+    speed_scale = std::max(speed_scale, std::sqrt(2.0 * std::max(g_mag, 1e-3) * tmodel->max_energy_height));
+  cfg.speed_of_sound = num.has("speed_of_sound") ? num.number("speed_of_sound", 0.0, 1e5, true) : beta * speed_scale;
   if (num.has("viscosity_cap")) {
     const json& cap = num.raw("viscosity_cap");
     if (cap.is_string()) {
@@ -542,6 +703,15 @@ Scene build(const json& j, Scene scene) {
     cfg.domain_min[d] = lo[d] - margin;
     cfg.domain_max[d] = hi[d] + margin;
   }
+  if (tmodel) {
+    // The corridor's bounding box; faces on the DEM's edge let the flow leave the modelled area.
+    cfg.domain_min[0] = 0.0;
+    cfg.domain_min[1] = 0.0;
+    cfg.domain_max[0] = tmodel->bed.nx * dp;
+    cfg.domain_max[1] = tmodel->bed.ny * dp;
+    for (int d = 0; d < 2; ++d) cfg.outflow[d] = tmodel->open_faces[d];
+    if (top.has("domain")) throw SceneError("domain", "a terrain scene takes its domain from the corridor");
+  }
   if (top.has("domain")) {
     Fields dom(top.raw("domain"), "domain", {"min", "max", "periodic", "outflow"});
     if (dom.has("min")) {
@@ -587,13 +757,75 @@ Scene build(const json& j, Scene scene) {
     }
   }
 
+  // Monitors: gauges and loads by name. On terrain every walled structure gets a load monitor anyway.
+  {
+    std::set<std::string> names;
+    const real ox = tmodel ? tmodel->origin_x : 0.0, oy = tmodel ? tmodel->origin_y : 0.0;
+    if (top.has("monitors")) {
+      const json& ms = top.raw("monitors");
+      if (!ms.is_array()) throw SceneError("monitors", "must be an array of monitors");
+      for (size_t k = 0; k < ms.size(); ++k) {
+        const std::string path = "monitors[" + std::to_string(k) + "]";
+        MonitorSpec spec;
+        spec.type = Fields(ms[k], path, {"type", "name", "line", "x", "arrival_volume", "structure", "normal"})
+                        .string("type", {"section", "structure_load"});
+        std::set<std::string> allowed = {"type", "name"};
+        if (spec.type == "section") allowed.insert({D == 3 ? "line" : "x", "arrival_volume"});
+        if (spec.type == "structure_load") allowed.insert({"structure", "normal"});
+        Fields f(ms[k], path, allowed);
+        spec.name = f.string("name");
+        if (!names.insert(spec.name).second) throw SceneError(f.at("name"), "duplicate monitor name '" + spec.name + "'");
+        if (spec.type == "section") {
+          if constexpr (D == 3) {
+            for (const auto& p : parse_polyline(f.raw("line"), f.at("line"), 2)) spec.points.push_back({p[0] - ox, p[1] - oy});
+          } else {
+            spec.points.push_back({f.number("x", -1e7, 1e7), 0.0});
+          }
+          spec.arrival_volume = f.number_or("arrival_volume", 0.0, 0.0, 1e12);
+        } else {
+          const std::string target = f.string("structure");
+          auto it = std::find(scene.boundary_tags.begin() + 1, scene.boundary_tags.end(), target);
+          if (it == scene.boundary_tags.end())
+            throw SceneError(f.at("structure"), "no boundary or structure named '" + target + "' (named: " +
+                                                    Fields::join({scene.boundary_tags.begin() + 1, scene.boundary_tags.end()}) + ")");
+          spec.tag = static_cast<uint32_t>(it - scene.boundary_tags.begin());
+          if (f.has("normal")) {
+            const auto n = f.vector("normal", D, -1.0, 1.0);
+            real n2 = 0;
+            for (int d = 0; d < D; ++d) spec.normal[d] = n[d], n2 += n[d] * n[d];
+            if (!(n2 > 1e-12)) throw SceneError(f.at("normal"), "must not be zero");
+          } else if (tmodel) {
+            for (const auto& st : tmodel->structures)
+              if (st.name == target) spec.normal = {st.flow_normal[0], st.flow_normal[1], 0.0};
+          }
+        }
+        scene.monitors.push_back(spec);
+      }
+    }
+    if (tmodel) {
+      for (const auto& st : tmodel->structures) {
+        if (!st.tag) continue;
+        bool covered = false;
+        for (const auto& m : scene.monitors) covered = covered || (m.type == "structure_load" && m.tag == st.tag);
+        if (covered || names.count(st.name)) continue;
+        MonitorSpec spec;
+        spec.type = "structure_load";
+        spec.name = st.name;
+        spec.tag = st.tag;
+        spec.normal = {st.flow_normal[0], st.flow_normal[1], 0.0};
+        scene.monitors.push_back(spec);
+      }
+    }
+  }
+
+  scene.terrain = std::move(tmodel);
   scene.setup = std::move(setup);
   return scene;
 }
 
 }  // namespace
 
-Scene parse_scene(const std::string& json_text) {
+Scene parse_scene(const std::string& json_text, const std::filesystem::path& base_dir) {
   json j;
   try {
     j = json::parse(json_text);
@@ -609,11 +841,12 @@ Scene parse_scene(const std::string& json_text) {
   if (!top.has("dimensions")) throw SceneError("dimensions", "missing (required: 2 or 3)");
   scene.dp = top.number("dp", 1e-4, 100.0);
   scene.duration = top.number("duration", 0.0, 1e5, true);
-  Fields out(j.contains("output") ? j["output"] : json::object(), "output", {"series_interval", "snapshot_interval"});
+  Fields out(j.contains("output") ? j["output"] : json::object(), "output", {"series_interval", "snapshot_interval", "inundation_threshold"});
   scene.output.series_interval = out.number_or("series_interval", std::min(0.01, scene.duration / 100.0), 0.0, 1e4, true);
   scene.output.snapshot_interval = out.number_or("snapshot_interval", 0.0, 0.0, 1e4);
+  scene.output.inundation_threshold = out.number_or("inundation_threshold", 0.1, 0.0, 100.0, true);
   scene.canonical_json = j.dump();
-  return scene.dimensions == 2 ? build<2>(j, std::move(scene)) : build<3>(j, std::move(scene));
+  return scene.dimensions == 2 ? build<2>(j, std::move(scene), base_dir) : build<3>(j, std::move(scene), base_dir);
 }
 
 Scene load_scene(const std::filesystem::path& path) {
@@ -621,7 +854,7 @@ Scene load_scene(const std::filesystem::path& path) {
   if (!in) throw SceneError("(file)", "cannot read scene file '" + path.string() + "'");
   std::stringstream ss;
   ss << in.rdbuf();
-  return parse_scene(ss.str());
+  return parse_scene(ss.str(), path.parent_path());
 }
 
 }  // namespace runout

@@ -3,6 +3,7 @@
 // docs/scene-format.md describes every field. Parsing validates everything before any particle is made:
 // a bad scene throws SceneError naming the field (a JSON path) and the accepted range.
 #include <filesystem>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <variant>
@@ -10,9 +11,13 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include "runout/engine/monitors.hpp"
 #include "runout/engine/solver.hpp"
 
 namespace runout {
+namespace terrain {
+struct TerrainModel;
+}
 
 struct SceneError : std::invalid_argument {
   std::string field;
@@ -23,6 +28,7 @@ struct SceneError : std::invalid_argument {
 struct OutputSettings {
   real series_interval = 0.01;    // [s] of simulated time between rows of series/run.csv
   real snapshot_interval = 0.0;   // [s]; 0 = only when snapshots are requested, then 20 over the run
+  real inundation_threshold = 0.1; // [m] depth above which a terrain cell counts as inundated
 };
 
 // A parsed, validated scene: run settings plus the engine setup for its dimension.
@@ -34,12 +40,16 @@ struct Scene {
   long max_particles = 5'000'000;
   OutputSettings output;
   std::vector<std::string> boundary_tags;  // tag index -> name (index 0 unused)
+  std::vector<MonitorSpec> monitors;       // in the run's frame (terrain: local coordinates)
   std::variant<SceneSetup<2>, SceneSetup<3>> setup;
+  // Terrain scenes: the built terrain (DEM, corridor, structures, zones), in the run's local frame.
+  std::shared_ptr<const terrain::TerrainModel> terrain;
   // The scene as given (canonical JSON text), kept for manifests.
   std::string canonical_json;
 };
 
-Scene parse_scene(const std::string& json_text);
+// `base_dir` resolves relative file names in the scene (terrain.dem); load_scene uses the file's folder.
+Scene parse_scene(const std::string& json_text, const std::filesystem::path& base_dir = {});
 Scene load_scene(const std::filesystem::path& path);
 
 }  // namespace runout

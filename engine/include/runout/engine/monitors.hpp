@@ -1,0 +1,63 @@
+#pragma once
+// Monitors: what a run measures while it runs. One small interface; each kind is one class plus one line in
+// monitor_registry(), chosen by name from the scene. Monitors read the solver's state through its public
+// accessors after a step; none of them touches the force loops.
+#include <array>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "runout/engine/solver.hpp"
+
+namespace runout {
+
+// What a scene says about one monitor (already validated by the scene layer; positions in the run's frame).
+struct MonitorSpec {
+  std::string type;  // a key of monitor_registry()
+  std::string name;
+  // section: the gauge line in plan, (x, y) per point (3D); in 2D one point whose x is the section.
+  std::vector<std::array<real, 2>> points;
+  // section: the flow volume that must have passed for the front to have arrived [m3, or m2 in 2D];
+  // 0 = 0.5% of the fluid volume at the start.
+  real arrival_volume = 0.0;
+  // structure_load: the boundary tag of the structure, and the direction the flow pushes it (unit vector,
+  // components beyond the dimension ignored); a zero normal reports the magnitude of the force.
+  uint32_t tag = 0;
+  std::array<real, 3> normal{0, 0, 0};
+};
+
+template <int D>
+class Monitor {
+ public:
+  explicit Monitor(std::string name) : name_(std::move(name)) {}
+  virtual ~Monitor() = default;
+  const std::string& name() const { return name_; }
+  // Columns this monitor adds to its time series (the time column is the caller's).
+  virtual std::vector<std::string> columns() const = 0;
+  // After every step (cheap bookkeeping, e.g. particles crossing a section).
+  virtual void after_step(const Solver<D>&) {}
+  // One row of the time series, at the caller's sample times.
+  virtual std::vector<real> sample(const Solver<D>& solver) = 0;
+  // The reduced metrics (name -> value, SI units in the name's suffix).
+  virtual std::vector<std::pair<std::string, real>> summary() const = 0;
+
+ private:
+  std::string name_;
+};
+
+template <int D>
+using MonitorFactory = std::function<std::unique_ptr<Monitor<D>>(const MonitorSpec&, const Solver<D>&)>;
+
+// Monitor types by name: "section" (cross-section gauge), "structure_load" (force and pressure on a
+// tagged structure).
+template <int D>
+const std::map<std::string, MonitorFactory<D>>& monitor_registry();
+
+// Throws std::invalid_argument naming the monitor for an unknown type or a spec it cannot use.
+template <int D>
+std::unique_ptr<Monitor<D>> make_monitor(const MonitorSpec& spec, const Solver<D>& solver);
+
+}  // namespace runout

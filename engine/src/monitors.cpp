@@ -1,0 +1,254 @@
+// Cross-section gauges and structure loads.
+#include "runout/engine/monitors.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <unordered_map>
+
+#include "runout/engine/kernels.hpp"
+
+namespace runout {
+namespace {
+
+// Flow through a section: each particle's side (upstream -1, downstream +1, 0 beyond the section's ends)
+// is remembered by id; a particle crossing upstream -> downstream adds its volume m/rho to the volume
+// passed, one crossing back subtracts it. Q is the volume passed between two samples over their interval.
+template <int D>
+class SectionGauge final : public Monitor<D> {
+ public:
+  SectionGauge(const MonitorSpec& spec, const Solver<D>& s) : Monitor<D>(spec.name), pts_(spec.points) {
+    if (pts_.empty() || (D == 3 && pts_.size() < 2))
+      throw std::invalid_argument("monitor '" + spec.name + "': a section needs " +
+                                  std::string(D == 3 ? "at least 2 points" : "1 point"));
+    const auto& f = s.fluid();
+    side_.assign(f.size(), 0);
+    // Downstream is the side away from where the flow starts.
+    long pos = 0, neg = 0;
+    real volume = 0;
+    for (size_t i = 0; i < f.size(); ++i) {
+      const int raw = raw_side(f, i);
+      pos += raw > 0;
+      neg += raw < 0;
+      volume += f.mass[i] / f.rho[i];
+    }
+    downstream_ = pos > neg ? -1 : 1;
+    for (size_t i = 0; i < f.size(); ++i) side_[f.id[i]] = static_cast<int8_t>(raw_side(f, i) * downstream_);
+    arrival_volume_ = spec.arrival_volume > 0 ? spec.arrival_volume : 0.005 * volume;
+  }
+
+  std::vector<std::string> columns() const override { return {"discharge_m3_s", "volume_passed_m3"}; }
+
+  void after_step(const Solver<D>& s) override {
+    const auto& f = s.fluid();
+    real dv = 0;
+#pragma omp parallel for reduction(+ : dv) schedule(static)
+    for (size_t i = 0; i < f.size(); ++i) {
+      const int now = raw_side(f, i) * downstream_;
+      if (now == 0) continue;
+      int8_t& before = side_[f.id[i]];
+      if (before == -1 && now == 1) dv += f.mass[i] / f.rho[i];
+      if (before == 1 && now == -1) dv -= f.mass[i] / f.rho[i];
+      before = static_cast<int8_t>(now);
+    }
+    passed_ += dv;
+    if (arrival_time_ < 0 && passed_ >= arrival_volume_) arrival_time_ = s.time();
+  }
+
+  std::vector<real> sample(const Solver<D>& s) override {
+    const real t = s.time();
+    real q = 0;
+    if (t > last_t_) q = (passed_ - last_passed_) / (t - last_t_);
+    if (q > peak_) peak_ = q, peak_time_ = t;
+    last_t_ = t;
+    last_passed_ = passed_;
+    return {q, passed_};
+  }
+
+  std::vector<std::pair<std::string, real>> summary() const override {
+    return {{"peak_discharge_m3_s", peak_},
+            {"time_of_peak_s", peak_time_},
+            {"arrival_time_s", arrival_time_},
+            {"volume_passed_m3", passed_}};
+  }
+
+ private:
+  std::vector<std::array<real, 2>> pts_;
+  std::vector<int8_t> side_;  // by particle id
+  int downstream_ = 1;
+  real arrival_volume_ = 0, passed_ = 0, last_passed_ = 0, last_t_ = 0;
+  real peak_ = 0, peak_time_ = 0, arrival_time_ = -1;
+
+  // +1/-1 by the side of the nearest segment whose extent the particle is in, 0 if none.
+  int raw_side(const ParticleArrays<D>& f, size_t i) const {
+    if constexpr (D == 2) {
+      return f.pos[0][i] >= pts_[0][0] ? 1 : -1;
+    } else {
+      const real x = f.pos[0][i], y = f.pos[1][i];
+      real best = std::numeric_limits<real>::infinity();
+      int side = 0;
+      for (size_t k = 0; k + 1 < pts_.size(); ++k) {
+        const real ax = pts_[k][0], ay = pts_[k][1];
+        const real ex = pts_[k + 1][0] - ax, ey = pts_[k + 1][1] - ay;
+        const real len2 = ex * ex + ey * ey;
+        const real t = ((x - ax) * ex + (y - ay) * ey) / len2;
+        if (t < 0 || t > 1) continue;
+        const real cross = ex * (y - ay) - ey * (x - ax);
+        const real d = std::abs(cross) / std::sqrt(len2);
+        if (d < best) best = d, side = cross > 0 ? 1 : -1;
+      }
+      return side;
+    }
+  }
+};
+
+// Force of the flow on a tagged structure: the reaction to the pressure force the engine's momentum
+// equation puts on each fluid particle from the structure's particles,
+//   F = sum_i sum_j m_i m_j (p_i / rho_i^2 + p_j / rho_j^2) grad_i W_ij,
+// with the same kernel, pressures and densities as the last force evaluation. The mean face pressure is
+// F.n over the wetted face (structure particles with fluid closer than 1.5 dp, dp^(D-1) each); the peak
+// pressure is the largest boundary pressure among them.
+template <int D>
+class StructureLoad final : public Monitor<D> {
+ public:
+  StructureLoad(const MonitorSpec& spec, const Solver<D>& s) : Monitor<D>(spec.name) {
+    const auto& b = s.boundary();
+    for (size_t j = 0; j < b.size(); ++j)
+      if (b.tag[j] == spec.tag) members_.push_back(j);
+    if (spec.tag == 0 || members_.empty())
+      throw std::invalid_argument("monitor '" + spec.name + "': no boundary particle carries tag " +
+                                  std::to_string(spec.tag));
+    real n2 = 0;
+    for (int d = 0; d < D; ++d) normal_[d] = spec.normal[d], n2 += normal_[d] * normal_[d];
+    has_normal_ = n2 > 0;
+    if (has_normal_) normal_ /= std::sqrt(n2);
+    lo_ = Vec<D>::Constant(std::numeric_limits<real>::infinity());
+    hi_ = -lo_;
+    for (size_t j : members_) lo_ = lo_.cwiseMin(b.position(j)), hi_ = hi_.cwiseMax(b.position(j));
+  }
+
+  std::vector<std::string> columns() const override {
+    return {"force_n", "mean_pressure_pa", "peak_pressure_pa", "wetted_area_m2"};
+  }
+
+  std::vector<real> sample(const Solver<D>& s) override {
+    const auto& cfg = s.config();
+    const auto& f = s.fluid();
+    const auto& b = s.boundary();
+    const auto& pf = s.fluid_pressure();
+    const auto& pb = s.boundary_pressure();
+    const real support = 2.0 * cfg.smoothing_length;
+    const real contact = 1.5 * cfg.dp;
+    // Fluid near the structure, hashed in cells of the kernel support.
+    std::unordered_map<uint64_t, std::vector<uint32_t>> cells;
+    auto key = [&](const Vec<D>& p) {
+      uint64_t k = 0;
+      for (int d = 0; d < D; ++d)
+        k = k * 2097143u + static_cast<uint64_t>(static_cast<int64_t>(std::floor((p[d] - lo_[d]) / support)) + 1048576);
+      return k;
+    };
+    for (size_t i = 0; i < f.size() && i < pf.size(); ++i) {
+      const Vec<D> p = f.position(i);
+      bool near = true;
+      for (int d = 0; d < D; ++d) near = near && p[d] > lo_[d] - support && p[d] < hi_[d] + support;
+      if (near) cells[key(p)].push_back(static_cast<uint32_t>(i));
+    }
+    Vec<D> force = Vec<D>::Zero();
+    size_t wet = 0;
+    real peak_p = 0;
+    with_kernel<D>(cfg.kernel, cfg.smoothing_length, [&](auto kernel) {
+      for (size_t j : members_) {
+        const Vec<D> xj = b.position(j);
+        const real pj = pb[j] / (b.rho[j] * b.rho[j]);
+        bool touched = false;
+        std::array<int64_t, D> c;
+        for (int d = 0; d < D; ++d) c[d] = static_cast<int64_t>(std::floor((xj[d] - lo_[d]) / support));
+        for (int o = 0; o < (D == 2 ? 9 : 27); ++o) {
+          uint64_t k = 0;
+          int rem = o;
+          for (int d = 0; d < D; ++d, rem /= 3) k = k * 2097143u + static_cast<uint64_t>(c[d] + rem % 3 - 1 + 1048576);
+          auto it = cells.find(k);
+          if (it == cells.end()) continue;
+          for (uint32_t i : it->second) {
+            const Vec<D> dx = f.position(i) - xj;
+            const real r = dx.norm();
+            if (r >= support || r < 1e-12) continue;
+            force += f.mass[i] * b.mass[j] * (pf[i] / (f.rho[i] * f.rho[i]) + pj) * kernel.grad_factor(r) * dx;
+            touched = touched || r < contact;
+          }
+        }
+        if (touched) {
+          ++wet;
+          peak_p = std::max(peak_p, pb[j]);
+        }
+      }
+    });
+    // The fluid feels -sum m_i m_j (...) grad_i W; the wall the opposite, which is the sum as written
+    // (fluid resting on a floor: dx points up, the gradient factor is negative, the floor is pushed down).
+    const real fn = has_normal_ ? force.dot(normal_) : force.norm();
+    const real area = wet * std::pow(cfg.dp, D - 1);
+    const real mean_p = area > 0 ? fn / area : 0.0;
+    const real t = s.time();
+    if (fn > peak_force_) peak_force_ = fn, peak_force_time_ = t;
+    if (mean_p > peak_mean_p_) peak_mean_p_ = mean_p, peak_mean_p_time_ = t;
+    peak_p_ = std::max(peak_p_, peak_p);
+    last_ = {fn, mean_p, peak_p, area};
+    history_.push_back({t, fn, mean_p});
+    return last_;
+  }
+
+  std::vector<std::pair<std::string, real>> summary() const override {
+    // Late stable value: the mean over the last 10% of the samples (at least one).
+    real late_f = 0, late_p = 0;
+    const size_t n = history_.size(), k = std::max<size_t>(1, n / 10);
+    for (size_t q = n - std::min(n, k); q < n; ++q) late_f += history_[q][1], late_p += history_[q][2];
+    if (n) late_f /= std::min(n, k), late_p /= std::min(n, k);
+    return {{"peak_force_n", peak_force_},
+            {"time_of_peak_force_s", peak_force_time_},
+            {"peak_mean_pressure_pa", peak_mean_p_},
+            {"time_of_peak_pressure_s", peak_mean_p_time_},
+            {"peak_particle_pressure_pa", peak_p_},
+            {"late_force_n", late_f},
+            {"late_mean_pressure_pa", late_p}};
+  }
+
+ private:
+  std::vector<size_t> members_;
+  Vec<D> normal_ = Vec<D>::Zero(), lo_, hi_;
+  bool has_normal_ = false;
+  real peak_force_ = 0, peak_force_time_ = 0, peak_mean_p_ = 0, peak_mean_p_time_ = 0, peak_p_ = 0;
+  std::vector<real> last_;
+  std::vector<std::array<real, 3>> history_;
+};
+
+}  // namespace
+
+template <int D>
+const std::map<std::string, MonitorFactory<D>>& monitor_registry() {
+  static const std::map<std::string, MonitorFactory<D>> registry = {
+      {"section", [](const MonitorSpec& s, const Solver<D>& v) { return std::make_unique<SectionGauge<D>>(s, v); }},
+      {"structure_load",
+       [](const MonitorSpec& s, const Solver<D>& v) { return std::make_unique<StructureLoad<D>>(s, v); }},
+  };
+  return registry;
+}
+
+template <int D>
+std::unique_ptr<Monitor<D>> make_monitor(const MonitorSpec& spec, const Solver<D>& solver) {
+  const auto& reg = monitor_registry<D>();
+  auto it = reg.find(spec.type);
+  if (it == reg.end()) {
+    std::string names;
+    for (const auto& [n, f] : reg) names += (names.empty() ? "" : ", ") + n;
+    throw std::invalid_argument("monitor '" + spec.name + "': unknown type '" + spec.type + "' (accepted: " + names + ")");
+  }
+  return it->second(spec, solver);
+}
+
+template const std::map<std::string, MonitorFactory<2>>& monitor_registry<2>();
+template const std::map<std::string, MonitorFactory<3>>& monitor_registry<3>();
+template std::unique_ptr<Monitor<2>> make_monitor<2>(const MonitorSpec&, const Solver<2>&);
+template std::unique_ptr<Monitor<3>> make_monitor<3>(const MonitorSpec&, const Solver<3>&);
+
+}  // namespace runout

@@ -1,0 +1,105 @@
+#pragma once
+// Rasters in and out. A Grid is a north-up raster in a projected CRS with metre units; everything above the
+// terrain library works on Grids and never sees GDAL.
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace runout::terrain {
+
+// Bad terrain input. `field` names the scene field at fault (for instance "terrain.dem"), so the service can
+// put the message next to the right form field.
+struct TerrainError : std::runtime_error {
+  std::string field;
+  TerrainError(std::string field_, const std::string& message)
+      : std::runtime_error(field_ + ": " + message), field(std::move(field_)) {}
+};
+
+// Cell (i, j) is column i (west to east) and row j (north to south); its centre is
+// (x0 + (i + 1/2) dx, y0 - (j + 1/2) dy). Nodata is NaN.
+struct Grid {
+  int nx = 0, ny = 0;
+  double x0 = 0.0, y0 = 0.0;  // west and north edges
+  double dx = 0.0, dy = 0.0;  // cell sizes, positive
+  std::string crs_wkt;        // OGC WKT of the projected CRS ("" only for scratch grids)
+  std::vector<float> values;  // ny * nx, row-major
+
+  static constexpr float nodata = std::numeric_limits<float>::quiet_NaN();
+
+  Grid() = default;
+  Grid(int nx_, int ny_, double x0_, double y0_, double dx_, double dy_, std::string crs = {}, float fill = 0.0f)
+      : nx(nx_), ny(ny_), x0(x0_), y0(y0_), dx(dx_), dy(dy_), crs_wkt(std::move(crs)),
+        values(static_cast<size_t>(nx_) * static_cast<size_t>(ny_), fill) {}
+
+  // An empty grid with the same placement and CRS.
+  Grid like(float fill = 0.0f) const { return Grid(nx, ny, x0, y0, dx, dy, crs_wkt, fill); }
+
+  float& at(int i, int j) { return values[static_cast<size_t>(j) * nx + i]; }
+  float at(int i, int j) const { return values[static_cast<size_t>(j) * nx + i]; }
+  double cx(int i) const { return x0 + (i + 0.5) * dx; }
+  double cy(int j) const { return y0 - (j + 0.5) * dy; }
+  double x1() const { return x0 + nx * dx; }  // east edge
+  double y1() const { return y0 - ny * dy; }  // south edge
+  double cell_area() const { return dx * dy; }
+  // Cell holding a map point; false outside the grid.
+  bool cell_of(double x, double y, int& i, int& j) const {
+    const double fi = (x - x0) / dx, fj = (y0 - y) / dy;
+    if (!(fi >= 0.0 && fj >= 0.0 && fi < nx && fj < ny)) return false;
+    i = static_cast<int>(fi);
+    j = static_cast<int>(fj);
+    return true;
+  }
+  // Bilinear interpolation between cell centres (clamped to the outer half cell). NaN outside the grid or
+  // where any of the four cells is nodata.
+  double sample(double x, double y) const;
+};
+
+struct DemOptions {
+  // CRS to work in: "" keeps a projected DEM's own CRS and sends a geographic one to the UTM zone of its
+  // centre; otherwise anything OGR's SetFromUserInput accepts ("EPSG:32616", WKT, PROJ string).
+  std::string target_crs;
+  // Cell size in metres after reprojection; 0 keeps about the native resolution.
+  double resolution = 0.0;
+};
+
+// Reads band 1 of any raster GDAL opens (GeoTIFF, ESRI ASCII grid, VRT, ...), with nodata as NaN, and
+// returns it in a projected metre CRS (warped with bilinear resampling when needed). Throws TerrainError
+// (field "terrain.dem") for an unreadable file, a raster without CRS or geotransform, a rotated
+// geotransform, a non-metre projected CRS that the options do not reproject, or a raster that is all
+// nodata.
+Grid load_dem(const std::string& path, const DemOptions& options = {});
+
+// EPSG code string of the WGS 84 UTM zone holding a longitude/latitude ("EPSG:32616").
+std::string utm_crs_for(double lon_deg, double lat_deg);
+
+// OGC WKT of a CRS given as anything OGR's SetFromUserInput accepts ("EPSG:32616"); throws TerrainError
+// (field "terrain.crs") if it is not a CRS.
+std::string crs_wkt_from(const std::string& user_input);
+
+// Short human-readable name of a CRS ("WGS 84 / UTM zone 16N"), "" if the WKT is empty or unreadable.
+std::string crs_name(const std::string& crs_wkt);
+
+// Single-band Float32 GeoTIFF with the grid's CRS and geotransform, NaN as nodata, deflate-compressed.
+// Written to a temporary name and renamed, so a reader never sees half a file.
+void write_geotiff(const std::string& path, const Grid& grid);
+
+// A picture for people: the hillshaded terrain in grey with `depth` (same placement as `terrain`) drawn
+// over it in a blue colour ramp from `min_depth` to the grid's maximum; cells below min_depth stay grey.
+// Optional outlines (polygons/polylines in map coordinates) are drawn in `outline` colours. RGB PNG,
+// atomic like write_geotiff.
+struct MapOverlay {
+  std::vector<std::vector<std::pair<double, double>>> lines;  // each a polyline; closed if first == last
+  unsigned char r = 200, g = 30, b = 30;
+};
+void write_depth_map_png(const std::string& path, const Grid& terrain, const Grid& depth, double min_depth,
+                         const std::vector<MapOverlay>& overlays = {});
+// Integer factor by which write_depth_map_png enlarges an nx x ny grid (1 for grids of ~600 cells or more on
+// the longer side), so the PNG is (nx * factor) x (ny * factor) pixels.
+int depth_map_png_scale(int nx, int ny);
+
+// SHA-256 of a file's bytes (for run manifests), hex.
+std::string file_sha256(const std::string& path);
+
+}  // namespace runout::terrain

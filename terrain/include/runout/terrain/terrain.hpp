@@ -1,0 +1,157 @@
+#pragma once
+// A terrain scene: the reachable corridor of a DEM as boundary particles, the structures a layout places on
+// it, and the release filled with flow particles. Coordinates: structures, release and zones are given in
+// map coordinates of the working (projected) CRS; the particles live in a local frame
+// x = map_x - origin_x, y = map_y - origin_y, z = elevation, so snapshots keep their precision.
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "runout/engine/types.hpp"
+#include "runout/terrain/raster.hpp"
+
+namespace runout::terrain {
+
+using MapPoint = std::array<double, 2>;
+using Polyline = std::vector<MapPoint>;  // a polygon is a polyline read as closed (last joins first)
+
+double polygon_area(const Polyline& polygon);
+bool inside_polygon(const Polyline& polygon, double x, double y);
+// Distance to a polyline, and the arc length along it of the closest point.
+double distance_to_polyline(const Polyline& line, double x, double y, double* along = nullptr);
+
+struct CorridorSpec {
+  // Energy-line reach: a cell is reachable when a path from the release exists along which the line
+  // falling at the travel angle from the release surface stays above the ground.
+  double travel_angle_deg = 11.0;
+  double buffer_m = 0.0;  // widening of the reach; 0 = max(20 m, 10 dp)
+  Polyline polygon;       // if given, the corridor is this polygon (the reach is not computed)
+};
+
+struct ReleaseSpec {
+  Polyline polygon;
+  double depth = 0.0;   // one of depth or volume is > 0
+  double volume = 0.0;
+};
+
+enum class StructureKind { check_dam, deposition_area, retention_basin };
+const char* kind_name(StructureKind kind);
+
+struct StructureSpec {
+  StructureKind kind = StructureKind::check_dam;
+  std::string name;
+  Polyline line;  // check dam: the axis; deposition area and basin: the polygon
+  // check dam
+  double crest_height = 0.0;  // above the lowest bed point on the axis
+  double thickness = 0.0;
+  double slit_width = 0.0;    // 0 = no slit
+  double slit_bottom = 0.0;   // height of the slit's sill above the lowest bed point
+  // deposition area: the bed inside becomes a plane through the centroid at `elevation` (default: mean
+  // ground elevation inside) falling at `gradient` (m/m, default 0) along the ground's mean downhill direction
+  std::optional<double> elevation;
+  double gradient = 0.0;
+  // retention basin: bed lowered by `depth` inside, a wall of `wall_height` and `wall_thickness` on the
+  // edges except the open ones (default: the edge whose midpoint is highest, where the flow comes in)
+  double depth = 0.0;
+  double wall_height = 0.0;
+  double wall_thickness = 0.0;
+  std::optional<std::vector<int>> open_edges;
+};
+
+struct ProtectedZone {
+  std::string name;
+  Polyline polygon;
+};
+
+struct TerrainSpec {
+  std::string dem_path;
+  DemOptions dem;
+  int layers = 3;  // boundary particle layers under the surface
+  CorridorSpec corridor;
+  ReleaseSpec release;
+  std::vector<StructureSpec> structures;
+  std::vector<ProtectedZone> protected_zones;
+};
+
+struct StructureInfo {
+  std::string name;
+  StructureKind kind;
+  uint32_t tag = 0;           // boundary tag of its wall particles (0 if it has no wall)
+  Polyline outline;           // map coordinates: the axis (dam) or the polygon
+  double cut_volume = 0.0;    // [m3] ground removed (regrading, excavation)
+  double fill_volume = 0.0;   // [m3] ground added by regrading
+  double crest_elevation = 0.0;  // dam crest / basin wall top (lowest), [m]
+  double storage_capacity = 0.0; // [m3] volume the structure holds up to its crest/rim, from the bed grid
+  double wall_height_built = 0.0; // [m] wall particles' crest above the local bed at its lowest point
+  // Horizontal unit vector the flow pushes the structure along (map axes): a dam's downstream normal, a
+  // basin's mean downhill direction. Zero for a deposition area.
+  std::array<double, 2> flow_normal{0.0, 0.0};
+};
+
+// A built terrain scene. All particle positions are local (see the header comment).
+struct TerrainModel {
+  Grid dem;       // working DEM, projected, as loaded
+  Grid bed;       // bed elevation at dp spacing over the corridor's bounding box after structures; NaN off it
+  Grid original;  // the same before structures
+  double origin_x = 0.0, origin_y = 0.0;
+  double dp = 0.0;
+  double modelled_fraction = 0.0;  // corridor area / area of the DEM with data
+  double corridor_area = 0.0;      // [m2]
+  std::vector<StructureInfo> structures;
+  std::vector<ProtectedZone> protected_zones;
+  Polyline release_polygon;
+  double release_volume = 0.0;     // [m3] of the particles placed
+  double release_depth = 0.0;      // [m]
+  // Largest height of the energy line above the ground over the reach (at least the release depth): the
+  // sliding-block speed scale sqrt(2 g E) the default speed of sound is built on.
+  double max_energy_height = 0.0;
+  // Particles.
+  std::vector<Vec<3>> boundary;
+  std::vector<uint32_t> boundary_tag;  // 1 = terrain, then one per walled structure (StructureInfo::tag)
+  std::vector<Vec<3>> fluid;
+  std::vector<real> fluid_depth;       // below the release surface, for the hydrostatic start
+  // Domain faces that lie on the DEM's edge (flow may leave there): [axis][low/high].
+  std::array<std::array<bool, 2>, 2> open_faces{};
+
+  // Walls at dp spacing on the bed grid: top elevation (NaN where there is no wall), owner index into
+  // `structures`, and whether the column is inside the wall (all four neighbours are wall too).
+  Grid wall_top;
+  std::vector<int> wall_owner;
+  std::vector<char> wall_interior;
+
+  // Bed elevation at a local point (bilinear on `bed`), NaN off the corridor.
+  double bed_at(double x, double y) const;
+  // Why a fluid particle at local p is where no particle may be (under the ground, inside a wall, off the
+  // corridor), or "" if it is fine.
+  std::string misplaced(const Vec<3>& p) const;
+};
+
+// Throws TerrainError naming the field at fault (terrain.dem, release.polygon, structures[k], dp) for bad
+// input, before any particle is made; `max_particles` bounds the particle count.
+TerrainModel build_terrain(const TerrainSpec& spec, double dp, long max_particles = 5'000'000);
+
+// Inundation on the DEM's raster (a window of it around the corridor, aligned with its cells): running
+// max depth and max speed, and the depth at the last update. Depth in a cell is the flow volume over it
+// divided by its area (each particle's volume spread over the dp x dp square around it).
+class InundationGrid {
+ public:
+  InundationGrid() = default;
+  explicit InundationGrid(const TerrainModel& model);
+  // positions local; volume = m / rho; speed = |v|
+  void update(const std::vector<Vec<3>>& positions, const std::vector<real>& volumes,
+              const std::vector<real>& speeds);
+  const Grid& max_depth() const { return max_depth_; }
+  const Grid& max_speed() const { return max_speed_; }
+  const Grid& depth() const { return depth_; }
+  const Grid& terrain() const { return terrain_; }
+  // Cells with max depth >= threshold, times the cell area.
+  double inundated_area(double threshold) const;
+
+ private:
+  double origin_x_ = 0, origin_y_ = 0, dp_ = 0;
+  Grid terrain_, max_depth_, max_speed_, depth_;
+};
+
+}  // namespace runout::terrain

@@ -1,0 +1,57 @@
+// Inundation rasters: flow depth and speed binned onto the DEM's own cells.
+#include <algorithm>
+#include <cmath>
+
+#include "runout/terrain/terrain.hpp"
+
+namespace runout::terrain {
+
+InundationGrid::InundationGrid(const TerrainModel& model)
+    : origin_x_(model.origin_x), origin_y_(model.origin_y), dp_(model.dp) {
+  const Grid& dem = model.dem;
+  const Grid& bed = model.bed;
+  const int i0 = std::max(0, static_cast<int>(std::floor((bed.x0 - dem.x0) / dem.dx + 1e-9)));
+  const int i1 = std::min(dem.nx, static_cast<int>(std::ceil((bed.x1() - dem.x0) / dem.dx - 1e-9)));
+  const int j0 = std::max(0, static_cast<int>(std::floor((dem.y0 - bed.y0) / dem.dy + 1e-9)));
+  const int j1 = std::min(dem.ny, static_cast<int>(std::ceil((dem.y0 - bed.y1()) / dem.dy - 1e-9)));
+  terrain_ = Grid(i1 - i0, j1 - j0, dem.x0 + i0 * dem.dx, dem.y0 - j0 * dem.dy, dem.dx, dem.dy, dem.crs_wkt);
+  for (int j = 0; j < terrain_.ny; ++j)
+    for (int i = 0; i < terrain_.nx; ++i) terrain_.at(i, j) = dem.at(i0 + i, j0 + j);
+  max_depth_ = terrain_.like(0.0f);
+  max_speed_ = terrain_.like(0.0f);
+  depth_ = terrain_.like(0.0f);
+}
+
+void InundationGrid::update(const std::vector<Vec<3>>& positions, const std::vector<real>& volumes,
+                            const std::vector<real>& speeds) {
+  std::fill(depth_.values.begin(), depth_.values.end(), 0.0f);
+  const double h = 0.5 * dp_, inv_area = 1.0 / terrain_.cell_area();
+  const Grid& g = terrain_;
+  for (size_t p = 0; p < positions.size(); ++p) {
+    const double x = positions[p][0] + origin_x_, y = positions[p][1] + origin_y_;
+    // The particle's dp x dp square, split over the cells it overlaps.
+    const double fx0 = (x - h - g.x0) / g.dx, fx1 = (x + h - g.x0) / g.dx;
+    const double fy0 = (g.y0 - (y + h)) / g.dy, fy1 = (g.y0 - (y - h)) / g.dy;
+    const double share = volumes[p] / ((fx1 - fx0) * (fy1 - fy0));
+    for (int j = std::max(0, static_cast<int>(std::floor(fy0))); j < std::min(g.ny, static_cast<int>(std::ceil(fy1))); ++j) {
+      const double oy = std::min<double>(fy1, j + 1) - std::max<double>(fy0, j);
+      if (oy <= 0) continue;
+      for (int i = std::max(0, static_cast<int>(std::floor(fx0))); i < std::min(g.nx, static_cast<int>(std::ceil(fx1))); ++i) {
+        const double ox = std::min<double>(fx1, i + 1) - std::max<double>(fx0, i);
+        if (ox > 0) depth_.at(i, j) += static_cast<float>(share * ox * oy * inv_area);
+      }
+    }
+    int i, j;
+    if (g.cell_of(x, y, i, j)) max_speed_.at(i, j) = std::max(max_speed_.at(i, j), static_cast<float>(speeds[p]));
+  }
+  for (size_t c = 0; c < depth_.values.size(); ++c)
+    max_depth_.values[c] = std::max(max_depth_.values[c], depth_.values[c]);
+}
+
+double InundationGrid::inundated_area(double threshold) const {
+  size_t n = 0;
+  for (float v : max_depth_.values) n += v >= threshold;
+  return n * max_depth_.cell_area();
+}
+
+}  // namespace runout::terrain
