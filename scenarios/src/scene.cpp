@@ -251,7 +251,7 @@ real box_volume_particles(const json& j, int D, real dp) {
 const std::vector<std::string> kTopKeys = {"name",   "dimensions", "dp",     "duration", "gravity", "materials",
                                            "numerics", "fluid",    "boundaries", "domain", "output", "limits",
                                            "description", "terrain", "release", "structures",
-                                           "protected_zones", "monitors"};
+                                           "protected_zones", "monitors", "fidelity"};
 
 // A polyline or polygon: an array of [x, y] map coordinates.
 terrain::Polyline parse_polyline(const json& v, const std::string& field, size_t min_points) {
@@ -840,6 +840,16 @@ Scene parse_scene(const std::string& json_text, const std::filesystem::path& bas
   scene.dimensions = static_cast<int>(top.integer("dimensions", 0, 2, 3));
   if (!top.has("dimensions")) throw SceneError("dimensions", "missing (required: 2 or 3)");
   scene.dp = top.number("dp", 1e-4, 100.0);
+  if (top.has("fidelity")) {  // presets used by sweeps (scenarios/sweep.hpp); a plain run is "standard"
+    Fields fid(top.raw("fidelity"), "fidelity", {"draft", "standard", "fine"});
+    for (const char* level : {"draft", "standard", "fine"}) {
+      if (!fid.has(level)) continue;
+      Fields p(fid.raw(level), fid.at(level), {"dp", "numerics"});
+      (void)p.number_or("dp", scene.dp, 1e-4, 100.0);
+      if (p.has("numerics") && !p.raw("numerics").is_object())
+        throw SceneError(p.at("numerics"), "must be an object of numerics fields");
+    }
+  }
   scene.duration = top.number("duration", 0.0, 1e5, true);
   Fields out(j.contains("output") ? j["output"] : json::object(), "output", {"series_interval", "snapshot_interval", "inundation_threshold"});
   scene.output.series_interval = out.number_or("series_interval", std::min(0.01, scene.duration / 100.0), 0.0, 1e4, true);

@@ -631,4 +631,15 @@ std::string file_sha256(const std::string& path) {
   return out;
 }
 
+std::string sha256_hex(const std::string& bytes) {
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int len = 0;
+  if (EVP_Digest(bytes.data(), bytes.size(), digest, &len, EVP_sha256(), nullptr) != 1)
+    throw std::runtime_error("sha256_hex: OpenSSL SHA-256 unavailable");
+  static const char* hex = "0123456789abcdef";
+  std::string out;
+  for (unsigned int k = 0; k < len; ++k) out += hex[digest[k] >> 4], out += hex[digest[k] & 15];
+  return out;
+}
+
 }  // namespace runout::terrain

@@ -101,5 +101,7 @@ int depth_map_png_scale(int nx, int ny);
 
 // SHA-256 of a file's bytes (for run manifests), hex.
 std::string file_sha256(const std::string& path);
+// SHA-256 of a string, hex.
+std::string sha256_hex(const std::string& bytes);
 
 }  // namespace runout::terrain

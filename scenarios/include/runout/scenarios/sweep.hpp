@@ -1,0 +1,58 @@
+#pragma once
+// Sweeps: a base scene plus layouts (which of its candidate structures are built) at a fidelity. A sweep
+// file names either explicit variants (the flume's C0-C7 are not a full factorial) or a factorial over
+// named structures (the catchment's G0-G7: every subset of Dam1-Dam3, numbered as in the study).
+// docs/scene-format.md ("Sweeps") describes the file.
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace runout {
+
+// Fidelity: a named preset of dp and the numerics that go with it, or an explicit dp. A scene may define
+// its presets under "fidelity"; without them draft = 2 dp, standard = dp, fine = dp / 2 of the scene's dp.
+struct Fidelity {
+  std::string name = "standard";  // draft | standard | fine | custom
+  std::optional<double> dp;       // explicit dp (name "custom")
+};
+const std::vector<std::string>& fidelity_names();
+
+struct SweepVariant {
+  std::string name;                     // "C3", "G5"
+  std::vector<std::string> structures;  // candidate structures of the base scene that are built
+};
+
+struct Sweep {
+  std::string name;
+  std::filesystem::path base_path;  // the base scene file
+  std::string base_json;            // its text
+  Fidelity fidelity;                // the sweep's default (the CLI may override)
+  std::vector<SweepVariant> variants;
+};
+
+// Parses and validates a sweep (throws SceneError naming the field): the base scene must parse, every
+// variant's structures must be candidates of the base scene, names unique.
+Sweep parse_sweep(const std::string& json_text, const std::filesystem::path& base_dir = {});
+Sweep load_sweep(const std::filesystem::path& path);
+
+// All subsets of `names`, ordered by size and then in the order of `names` (none; each alone; pairs;
+// ...; all), named prefix + index: for Dam1-Dam3 that is G0 none, G1 Dam1, G2 Dam2, G3 Dam3, G4 Dam1+Dam2,
+// G5 Dam1+Dam3, G6 Dam2+Dam3, G7 all three.
+std::vector<SweepVariant> factorial_variants(const std::vector<std::string>& names, const std::string& prefix);
+
+// The scene JSON of one variant at a fidelity: the base with only the variant's structures kept, dp and
+// the preset's numerics applied, "fidelity" removed, named "<base name>/<variant>". Validated by
+// parse_scene when run.
+std::string resolve_variant(const std::string& base_json, const SweepVariant& variant, const Fidelity& fidelity);
+
+// The run's identity: SHA-256 over the resolved scene (canonical JSON), the hashes of the files it reads
+// (the DEM), the fidelity and the program version. Same inputs, same hash: a stored run is not recomputed.
+struct Manifest {
+  std::string hash;
+  std::string json;  // what was hashed, for the record
+};
+Manifest make_manifest(const std::string& resolved_scene_json, const std::filesystem::path& base_dir,
+                       const Fidelity& fidelity);
+
+}  // namespace runout
