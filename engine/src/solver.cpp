@@ -34,20 +34,6 @@ constexpr int kCellBits = 21;
 constexpr int64_t kCellBias = int64_t{1} << (kCellBits - 1);
 constexpr uint64_t kRemovedKey = std::numeric_limits<uint64_t>::max();
 
-template <int D>
-constexpr int kStressComponents = D * (D + 1) / 2;
-
-// Index of component (a, b) in the packed upper-triangle stress.
-template <int D>
-constexpr int sym_index(int a, int b) {
-  if (a > b) std::swap(a, b);
-  if constexpr (D == 2) {
-    return a == 0 ? b : 2;
-  } else {
-    return a == 0 ? b : (a == 1 ? 2 + b : 5);
-  }
-}
-
 std::string fmt_time(real t) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "t=%.6g s", t);
@@ -425,7 +411,6 @@ void Solver<D>::sort_and_build_cells() {
   pressure_.resize(keep);
   mu_eff_.resize(keep);
   shear_rate_.resize(keep);
-  tau_.resize(keep);
 }
 
 // The interaction kernels. Templated on the kernel and on whether the stress term exists, so the pair
@@ -446,7 +431,6 @@ template <int D>
 void Solver<D>::evaluate(bool compute_dt) {
   auto& I = *impl_;
   constexpr int kNb = Impl::kNb;
-  constexpr int NT = kStressComponents<D>;
   const size_t n = fluid_.size();
   const size_t ncells = I.fcell_key.size();
   const real h = config_.smoothing_length;
@@ -614,9 +598,10 @@ void Solver<D>::evaluate(bool compute_dt) {
               const real F = kernel.grad_factor(std::sqrt(r2));
               const real Vj = bmass[j] / brho[j];
               div += Vj * F * vi.dot(dx);
-              // Wall velocity mirrored (v_b = -v_i): the wall counts twice in the gradient, as it does in the
-              // stress divergence below (tau_b = tau_i), so the viscous power -sum V tau : L is <= 0.
-              L.noalias() -= (2.0 * Vj * F) * vi * dx.transpose();
+              // No-slip wall, v_b = 0: the same wall velocity the viscous force of pass 2 acts against. (A
+              // mirrored v_b = -v_i, needed by the former stress-divergence force for energy consistency,
+              // overestimates the wall shear rate: the Bingham Poiseuille plug then ran 9 % fast.)
+              L.noalias() -= (Vj * F) * vi * dx.transpose();
             }
           }
           drho_[i] = rhoi * div + ddt_coef * diff;
@@ -628,9 +613,6 @@ void Solver<D>::evaluate(bool compute_dt) {
           real dd = Dd.squaredNorm();
           if constexpr (D == 2) dd += tr3 * tr3;  // the zz component of the plane-strain deviator
           shear_rate_[i] = std::max(std::sqrt(2.0 * dd), config_.shear_rate_floor);
-          auto& t = tau_[i];
-          for (int a = 0; a < D; ++a)
-            for (int b = a; b < D; ++b) t[sym_index<D>(a, b)] = Dd(a, b);  // scaled by 2 mu_eff below
         }
       }
 
@@ -656,13 +638,17 @@ void Solver<D>::evaluate(bool compute_dt) {
       for (size_t i = 0; i < n; ++i) {
         const real mu = std::min(mu_eff_[i], cap);
         mu_eff_[i] = mu;
-        for (int q = 0; q < NT; ++q) tau_[i][q] *= 2.0 * mu;
         max_nu = std::max(max_nu, mu / rho[i]);
       }
     }
 
     // Pass 2: momentum (pressure, artificial viscosity, rheology stress, gravity); in inviscid scenes also
-    // continuity.
+    // continuity. The rheology stress acts through the Morris et al. (1997) viscous operator with each
+    // particle's capped mu_eff from pass 1 (the same for every rheology): a one-step Laplacian stencil, with no
+    // odd-even null mode, unlike the divergence of tau = 2 mu_eff D' built from the SPH velocity gradient
+    // (alternate particle rows slid past each other). It approximates div(mu_eff grad v) and drops the
+    // grad(mu_eff) . (grad v)^T part of div(2 mu_eff D'), which vanishes in simple shear (docs/design.md).
+    // Pairwise symmetric and v_ij-parallel, so it conserves momentum and can only dissipate energy.
 #pragma omp parallel for schedule(dynamic, 16) reduction(max : max_acc, max_visc_term)
     for (size_t c = 0; c < ncells; ++c) {
       for (uint32_t i = I.fcell_begin[c]; i < I.fcell_begin[c + 1]; ++i) {
@@ -674,32 +660,23 @@ void Solver<D>::evaluate(bool compute_dt) {
         const real rhoi = rho[i];
         const int mi = mat[i];
         const real pi_term = press[i] / (rhoi * rhoi);
-        std::array<real, NT> ti{};
-        if constexpr (kViscous)
-          for (int q = 0; q < NT; ++q) ti[q] = tau_[i][q] / (rhoi * rhoi);
+        const real mui = kViscous ? mu_eff_[i] : 0.0;
         Vec<D> a = Vec<D>::Zero();
         real visc_max = 0, div = 0, diff = 0;
-        // One pair's momentum contribution; tj is the neighbour's stress over rho_j^2.
-        auto momentum = [&](real F, const Vec<D>& dx, real r2, real vdotdx, real mj, real rhoj, real pj,
-                            const std::array<real, NT>& tj) {
+        // One pair's momentum contribution; muj is the neighbour's (capped) effective viscosity.
+        auto momentum = [&](real F, const Vec<D>& dx, real r2, const Vec<D>& vij, real vdotdx, real mj, real rhoj,
+                            real pj, real muj) {
           real pterm = pi_term + pj / (rhoj * rhoj);
           const real mu_ij = h * vdotdx / (r2 + eta2);
           visc_max = std::max(visc_max, std::abs(mu_ij));
           if (alpha > 0 && vdotdx < 0) pterm -= alpha * c0 * mu_ij / (0.5 * (rhoi + rhoj));
           a -= (mj * pterm * F) * dx;
           if constexpr (kViscous) {
-            // (tau_i/rho_i^2 + tau_j/rho_j^2) . grad W, grad W = F dx
-            for (int p = 0; p < D; ++p) {
-              real s = 0;
-              for (int q = 0; q < D; ++q) {
-                const int k = sym_index<D>(p, q);
-                s += (ti[k] + tj[k]) * dx[q];
-              }
-              a[p] += mj * F * s;
-            }
+            // Morris et al. (1997): m_j (mu_i + mu_j) / (rho_i rho_j) (r_ij . grad W) / (r^2 + eta^2) v_ij,
+            // r_ij . grad W = F r^2 (F < 0: the pair force opposes v_ij).
+            a += (mj * (mui + muj) / (rhoi * rhoj) * F * r2 / (r2 + eta2)) * vij;
           }
         };
-        std::array<real, NT> tj{};
         for (int k = 0; k < I.fnb_fluid_n[c]; ++k) {
           const auto& blk = I.fnb_fluid[c * kNb + k];
           const Vec<D> xs = xi - I.shifts[blk.shift];
@@ -712,20 +689,19 @@ void Solver<D>::evaluate(bool compute_dt) {
             }
             if (r2 >= support2 || r2 < 1e-24) continue;
             const real F = kernel.grad_factor(std::sqrt(r2));
+            Vec<D> vij;
             real vdotdx = 0;
-            for (int d = 0; d < D; ++d) vdotdx += (vi[d] - V[d][j]) * dx[d];
-            const real rhoj = rho[j];
-            if constexpr (kViscous) {
-              const real inv = 1.0 / (rhoj * rhoj);
-              for (int q = 0; q < NT; ++q) tj[q] = tau_[j][q] * inv;
-            } else {
-              continuity(F, mass[j] / rhoj, vdotdx, rhoi, rhoj, mi, mat[j], dx, div, diff);
+            for (int d = 0; d < D; ++d) {
+              vij[d] = vi[d] - V[d][j];
+              vdotdx += vij[d] * dx[d];
             }
-            momentum(F, dx, r2, vdotdx, mass[j], rhoj, press[j], tj);
+            const real rhoj = rho[j];
+            if constexpr (!kViscous) continuity(F, mass[j] / rhoj, vdotdx, rhoi, rhoj, mi, mat[j], dx, div, diff);
+            momentum(F, dx, r2, vij, vdotdx, mass[j], rhoj, press[j], kViscous ? mu_eff_[j] : 0.0);
           }
         }
-        // Boundary neighbours: no-slip (v_b = 0), DBC pressure; the wall's stress mirrors the fluid's
-        // (tau_b = tau_i), so wall shear comes from the velocity gradient measured against v_b = 0.
+        // Boundary neighbours: no-slip (v_b = 0, so v_ij = v_i), DBC or extrapolated pressure; the wall particle
+        // takes the fluid particle's viscosity (mu_b = mu_i).
         for (int k = 0; k < I.fnb_bound_n[c]; ++k) {
           const auto& blk = I.fnb_bound[c * kNb + k];
           const Vec<D> xs = xi - I.shifts[blk.shift];
@@ -740,13 +716,8 @@ void Solver<D>::evaluate(bool compute_dt) {
             const real F = kernel.grad_factor(std::sqrt(r2));
             const real vdotdx = vi.dot(dx);
             const real rhob = brho[j];
-            if constexpr (kViscous) {
-              const real inv = 1.0 / (rhob * rhob);
-              for (int q = 0; q < NT; ++q) tj[q] = tau_[i][q] * inv;
-            } else {
-              div += bmass[j] / rhob * F * vdotdx;
-            }
-            momentum(F, dx, r2, vdotdx, bmass[j], rhob, bpress[j], tj);
+            if constexpr (!kViscous) div += bmass[j] / rhob * F * vdotdx;
+            momentum(F, dx, r2, vi, vdotdx, bmass[j], rhob, bpress[j], mui);
           }
         }
         if constexpr (!kViscous) drho_[i] = rhoi * div + ddt_coef * diff;

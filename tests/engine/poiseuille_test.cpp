@@ -175,11 +175,13 @@ Result simulate() {
 }  // namespace
 
 // One run, several checks (ctest runs every TEST in its own process, so splitting them would repeat the run).
-// DISABLED until the viscous operator is fixed: building tau from the SPH velocity gradient and taking its SPH
-// divergence lets alternate particle rows slide (an odd-even mode); rows deviate up to 11-15% from the Bingham
-// profile (plug width is right). The Morris et al. (1997) form passes at 2.3% (measured on a private build) but
-// drops the grad(mu) term; see docs/validation.md "Open problems". Run with --gtest_also_run_disabled_tests.
-TEST(PoiseuilleValidation, DISABLED_BinghamSteadyProfileAndPlugWidth) {
+// The former viscous operator (divergence of tau = 2 mu_eff D' built from the SPH velocity gradient) let
+// alternate particle rows slide (an odd-even mode) and failed here by 15 %; the Morris et al. (1997) operator
+// with the per-particle mu_eff passes (docs/validation.md, section 3). The plug-width check passes at its edge:
+// the SPH shear rate is smoothed over the kernel support and the capped plug's own creep rate at 9 mm from the
+// centre is 86 % of the rate at which mu_eff leaves the cap, so the 9 mm rows read as yielded (8 mm, one
+// spacing inside the analytic 10 mm).
+TEST(PoiseuilleValidation, BinghamSteadyProfileAndPlugWidth) {
   const Result r = simulate();
   ASSERT_TRUE(r.ran) << "the scene is not the periodic, body-force driven Bingham channel this test expects";
   EXPECT_LT(std::abs(r.u_centre_end - r.u_centre_at_80), 0.005 * r.U) << "not steady yet";

@@ -540,6 +540,13 @@ TEST(EnergyMetric, PeriodicWrapIsNotAFall) {
 //      100       0.02/0.03  0.06/0.06  0.10/0.10  0.17/0.17          (KE - released <= 0.01 J)
 // Factor 10 and 0.2 s (about the free-fall time of the column): the top creeps 0.66 dp where the default cap
 // lets it slump 4.6 dp. Factor 100 is what "rigid" needs over longer runs, at 10x the cost again.
+// The tables above were measured with the former viscous operator (divergence of tau = 2 mu_eff D'). With the
+// Morris et al. (1997) operator (docs/design.md) the capped column creeps 1.65x faster at the same cap: top
+// displacement at 0.2 s 6.32 dp (factor 1, 1.0k steps), 1.11 dp (10, 9.9k), 0.76 dp (15, 14.9k), 0.58 dp (20,
+// 19.8k); the former operator gave 0.67 dp at factor 10 (same driver). The Laplacian form approximates
+// div(mu grad v) and so has no zero-traction free surface: a slumping column (vertical compression, horizontal
+// extension) loses the extensional resistance the free surface gives the stress-divergence form. So this test
+// now runs at factor 20 (2x the steps); the assertion (top < dp over 0.2 s) is unchanged.
 std::string column(double cap_factor, double duration, double dp = 0.01) {
   json s = {{"name", "rigid-column"},
             {"dimensions", 2},
@@ -553,7 +560,7 @@ std::string column(double cap_factor, double duration, double dp = 0.01) {
   return s.dump();
 }
 
-constexpr double kColumnCapFactor = 10.0;
+constexpr double kColumnCapFactor = 20.0;
 constexpr double kColumnDuration = 0.2;  // about the free-fall time of the column's height
 
 class RigidColumn : public ::testing::Test {

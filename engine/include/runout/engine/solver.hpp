@@ -152,7 +152,6 @@ class Solver {
   // fluid per-particle work arrays
   std::array<std::vector<real>, D> acc_;
   std::vector<real> drho_, pressure_, mu_eff_, shear_rate_;
-  std::vector<std::array<real, D*(D + 1) / 2>> tau_;  // deviatoric stress, upper triangle row-major
   std::array<std::vector<real>, D> pos_saved_, vel_saved_;
   std::vector<real> rho_saved_;
   // boundary work arrays
