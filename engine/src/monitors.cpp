@@ -105,7 +105,7 @@ class SectionGauge final : public Monitor<D> {
 
 // Force of the flow on a tagged structure: the reaction to the pressure force the engine's momentum
 // equation puts on each fluid particle from the structure's particles,
-//   F = sum_i sum_j m_i m_j (p_i / rho_i^2 + p_j / rho_j^2) grad_i W_ij,
+//   F = sum_i sum_j m_i m_j max(p_i / rho_i^2 + p_j / rho_j^2, 0) grad_i W_ij,
 // with the same kernel, pressures and densities as the last force evaluation. The mean face pressure is
 // F.n over the wetted face (structure particles with fluid closer than 1.5 dp, dp^(D-1) each); the peak
 // pressure is the largest boundary pressure among them.
@@ -174,7 +174,8 @@ class StructureLoad final : public Monitor<D> {
             const Vec<D> dx = f.position(i) - xj;
             const real r = dx.norm();
             if (r >= support || r < 1e-12) continue;
-            force += f.mass[i] * b.mass[j] * (pf[i] / (f.rho[i] * f.rho[i]) + pj) * kernel.grad_factor(r) * dx;
+            // a wall pushes and never pulls, as in the momentum equation
+            force += f.mass[i] * b.mass[j] * std::max(pf[i] / (f.rho[i] * f.rho[i]) + pj, real(0)) * kernel.grad_factor(r) * dx;
             touched = touched || r < contact;
           }
         }

@@ -411,6 +411,10 @@ void Solver<D>::sort_and_build_cells() {
   pressure_.resize(keep);
   mu_eff_.resize(keep);
   shear_rate_.resize(keep);
+  yield_pressure_.resize(keep);
+  for (int d = 0; d < D; ++d) contact_normal_[d].assign(keep, 0);
+  mu_wall_.resize(keep);
+  zero_pressure_.resize(keep);
 }
 
 // The interaction kernels. Templated on the kernel and on whether the stress term exists, so the pair
@@ -444,15 +448,23 @@ void Solver<D>::evaluate(bool compute_dt) {
   Vec<D> g;
   for (int d = 0; d < D; ++d) g[d] = config_.gravity[d];
   const real inv_c0_sq = 1.0 / (c0 * c0);
+  const real contact2 = kWallContact * kWallContact * config_.dp * config_.dp;
+  // Slip speed below which basal Coulomb friction is proportional to the slip (regularisation).
+  const real v_slip = 0.01 * std::sqrt(9.81 * config_.dp);
 
   bool viscous = false;
   for (const auto& r : rheologies_) viscous = viscous || !r->is_inviscid();
 
   // Equation of state (Tait), per material for fluid; boundary particles use the boundary density.
-  std::vector<real> B(materials_.size()), rho0(materials_.size());
+  std::vector<real> B(materials_.size()), rho0(materials_.size()), p_min(materials_.size()),
+      wall_friction(materials_.size());
   for (size_t k = 0; k < materials_.size(); ++k) {
     rho0[k] = materials_[k].density;
     B[k] = c0 * c0 * rho0[k] / gam;
+    // A cohesionless granular material carries no tension: without this floor a spreading sheet goes into
+    // tension, clumps and sinks into the bed's lattice (docs/validation.md, "Thin sheets on terrain").
+    p_min[k] = -rheologies_[k]->tensile_strength();
+    wall_friction[k] = rheologies_[k]->wall_friction_coefficient();
   }
   const bool gamma7 = gam == 7.0;
   auto tait = [gamma7, gam](real rho, real r0, real b) {
@@ -469,7 +481,7 @@ void Solver<D>::evaluate(bool compute_dt) {
 #pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; ++i) {
     const int k = fluid_.material[i];
-    pressure_[i] = tait(fluid_.rho[i], rho0[k], B[k]);
+    pressure_[i] = std::max(tait(fluid_.rho[i], rho0[k], B[k]), p_min[k]);
   }
   const real rho0_b = config_.boundary_density;
   const real B_b = c0 * c0 * rho0_b / gam;
@@ -560,6 +572,8 @@ void Solver<D>::evaluate(bool compute_dt) {
           const real rhoi = rho[i];
           const int mi = mat[i];
           real div = 0, diff = 0;
+          // Kernel-averaged pressure for the yield stress, self term included.
+          real pw = press[i] * mass[i] / rhoi * kernel.W(0), ww = mass[i] / rhoi * kernel.W(0);
           Mat<D> L = Mat<D>::Zero();
           for (int k = 0; k < I.fnb_fluid_n[c]; ++k) {
             const auto& blk = I.fnb_fluid[c * kNb + k];
@@ -582,6 +596,9 @@ void Solver<D>::evaluate(bool compute_dt) {
               }
               continuity(F, Vj, vdotdx, rhoi, rho[j], mi, mat[j], dx, div, diff);
               L.noalias() -= (Vj * F) * vij * dx.transpose();
+              const real Wj = Vj * kernel.W(std::sqrt(r2));
+              pw += Wj * press[j];
+              ww += Wj;
             }
           }
           for (int k = 0; k < I.fnb_bound_n[c]; ++k) {
@@ -604,6 +621,7 @@ void Solver<D>::evaluate(bool compute_dt) {
               L.noalias() -= (Vj * F) * vi * dx.transpose();
             }
           }
+          yield_pressure_[i] = pw / ww;
           drho_[i] = rhoi * div + ddt_coef * diff;
           // Strain rate D = sym(L); deviator with the 3D trace (plane strain in 2D).
           const Mat<D> Ds = 0.5 * (L + L.transpose());
@@ -618,7 +636,11 @@ void Solver<D>::evaluate(bool compute_dt) {
 
       // Rheology: one call per material batch.
       if (materials_.size() == 1) {
-        rheologies_[0]->effective_viscosity(shear_rate_, pressure_, mu_eff_);
+        rheologies_[0]->effective_viscosity(shear_rate_, yield_pressure_, mu_eff_);
+        if (wall_friction[0] > 0) {
+          std::fill(zero_pressure_.begin(), zero_pressure_.end(), real(0));
+          rheologies_[0]->effective_viscosity(shear_rate_, zero_pressure_, mu_wall_);
+        }
       } else {
         for (size_t k = 0; k < materials_.size(); ++k) {
           std::vector<uint32_t> idx;
@@ -627,10 +649,15 @@ void Solver<D>::evaluate(bool compute_dt) {
           std::vector<real> gd(idx.size()), p(idx.size()), mu(idx.size());
           for (size_t q = 0; q < idx.size(); ++q) {
             gd[q] = shear_rate_[idx[q]];
-            p[q] = pressure_[idx[q]];
+            p[q] = yield_pressure_[idx[q]];
           }
           rheologies_[k]->effective_viscosity(gd, p, mu);
           for (size_t q = 0; q < idx.size(); ++q) mu_eff_[idx[q]] = mu[q];
+          if (wall_friction[k] > 0) {
+            std::fill(p.begin(), p.end(), real(0));
+            rheologies_[k]->effective_viscosity(gd, p, mu);
+            for (size_t q = 0; q < idx.size(); ++q) mu_wall_[idx[q]] = mu[q];
+          }
         }
       }
       const real cap = max_viscosity_;
@@ -638,6 +665,7 @@ void Solver<D>::evaluate(bool compute_dt) {
       for (size_t i = 0; i < n; ++i) {
         const real mu = std::min(mu_eff_[i], cap);
         mu_eff_[i] = mu;
+        mu_wall_[i] = wall_friction[fluid_.material[i]] > 0 ? std::min(mu_wall_[i], cap) : mu;
         max_nu = std::max(max_nu, mu / rho[i]);
       }
     }
@@ -661,20 +689,29 @@ void Solver<D>::evaluate(bool compute_dt) {
         const int mi = mat[i];
         const real pi_term = press[i] / (rhoi * rhoi);
         const real mui = kViscous ? mu_eff_[i] : 0.0;
+        const real mu_wall_i = kViscous ? mu_wall_[i] : 0.0;
+        const real friction_i = kViscous ? wall_friction[mi] : 0.0;
         Vec<D> a = Vec<D>::Zero();
+        Vec<D> a_wall_push = Vec<D>::Zero();  // the walls' pressure force on the particle, per unit mass
+        bool contact = false;                 // closer than kWallContact dp to a wall particle
+        Vec<D> wall_normal = Vec<D>::Zero();  // -sum_b V_b grad W: points away from the wall
         real visc_max = 0, div = 0, diff = 0;
         // One pair's momentum contribution; muj is the neighbour's (capped) effective viscosity.
         auto momentum = [&](real F, const Vec<D>& dx, real r2, const Vec<D>& vij, real vdotdx, real mj, real rhoj,
-                            real pj, real muj) {
+                            real pj, real muj, bool wall) {
           real pterm = pi_term + pj / (rhoj * rhoj);
+          // A wall pushes and never pulls: where a fluid particle's pressure is negative (a liquid may carry
+          // tension) the pair term would draw it into the wall's particle lattice.
+          if (wall) pterm = std::max(pterm, real(0));
           const real mu_ij = h * vdotdx / (r2 + eta2);
           visc_max = std::max(visc_max, std::abs(mu_ij));
           if (alpha > 0 && vdotdx < 0) pterm -= alpha * c0 * mu_ij / (0.5 * (rhoi + rhoj));
           a -= (mj * pterm * F) * dx;
+          if (wall) a_wall_push -= (mj * pterm * F) * dx;
           if constexpr (kViscous) {
             // Morris et al. (1997): m_j (mu_i + mu_j) / (rho_i rho_j) (r_ij . grad W) / (r^2 + eta^2) v_ij,
             // r_ij . grad W = F r^2 (F < 0: the pair force opposes v_ij).
-            a += (mj * (mui + muj) / (rhoi * rhoj) * F * r2 / (r2 + eta2)) * vij;
+            a += (mj * ((wall ? mu_wall_i : mui) + muj) / (rhoi * rhoj) * F * r2 / (r2 + eta2)) * vij;
           }
         };
         for (int k = 0; k < I.fnb_fluid_n[c]; ++k) {
@@ -697,7 +734,7 @@ void Solver<D>::evaluate(bool compute_dt) {
             }
             const real rhoj = rho[j];
             if constexpr (!kViscous) continuity(F, mass[j] / rhoj, vdotdx, rhoi, rhoj, mi, mat[j], dx, div, diff);
-            momentum(F, dx, r2, vij, vdotdx, mass[j], rhoj, press[j], kViscous ? mu_eff_[j] : 0.0);
+            momentum(F, dx, r2, vij, vdotdx, mass[j], rhoj, press[j], kViscous ? mu_eff_[j] : 0.0, false);
           }
         }
         // Boundary neighbours: no-slip (v_b = 0, so v_ij = v_i), DBC or extrapolated pressure; the wall particle
@@ -717,8 +754,25 @@ void Solver<D>::evaluate(bool compute_dt) {
             const real vdotdx = vi.dot(dx);
             const real rhob = brho[j];
             if constexpr (!kViscous) div += bmass[j] / rhob * F * vdotdx;
-            momentum(F, dx, r2, vi, vdotdx, bmass[j], rhob, bpress[j], mui);
+            momentum(F, dx, r2, vi, vdotdx, bmass[j], rhob, bpress[j], mu_wall_i, true);
+            contact = contact || r2 < contact2;
+            wall_normal -= (bmass[j] / rhob * F) * dx;
           }
+        }
+        if constexpr (kViscous) {
+          // Basal friction (friction rheologies): Coulomb against the wall's normal push N, along the tangential
+          // velocity, smoothed over a slip speed v_slip so a resting particle is not chattered by sign flips.
+          const real push = a_wall_push.norm();
+          if (friction_i > 0 && push > 0) {
+            const Vec<D> nrm = a_wall_push / push;
+            const Vec<D> vt = vi - vi.dot(nrm) * nrm;
+            const real vts = vt.norm();
+            if (vts > 0) a -= (friction_i * push * -std::expm1(-vts / v_slip) / vts) * vt;
+          }
+        }
+        {
+          const real nn = wall_normal.norm();
+          for (int d = 0; d < D; ++d) contact_normal_[d][i] = contact && nn > 0 ? wall_normal[d] / nn : 0;
         }
         if constexpr (!kViscous) drho_[i] = rhoi * div + ddt_coef * diff;
         a += g;
@@ -808,6 +862,16 @@ const StepStats& Solver<D>::step() {
     }
   };
 
+  // A particle in contact with a wall loses the velocity component that takes it further in (an inelastic
+  // contact: it never adds energy). The wall pressure holds a resting sheet but does not grow as a particle
+  // closes in: without this, lone particles went 1 dp under the Jacksboro terrain.
+  auto stop_wall_approach = [&](size_t i) {
+    real vn = 0;
+    for (int d = 0; d < D; ++d) vn += fluid_.vel[d][i] * contact_normal_[d][i];
+    if (vn < 0)
+      for (int d = 0; d < D; ++d) fluid_.vel[d][i] -= vn * contact_normal_[d][i];
+  };
+
   if (config_.integrator == Integrator::symplectic) {
     // Predictor (thesis eq. 2.25).
     const real hdt = 0.5 * dt;
@@ -831,10 +895,10 @@ const StepStats& Solver<D>::step() {
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; ++i) {
       for (int d = 0; d < D; ++d) {
-        const real v_new = vel_saved_[d][i] + dt * acc_[d][i];
-        fluid_.pos[d][i] = pos_saved_[d][i] + dt * 0.5 * (v_new + vel_saved_[d][i]);
-        fluid_.vel[d][i] = v_new;
+        fluid_.vel[d][i] = vel_saved_[d][i] + dt * acc_[d][i];
       }
+      stop_wall_approach(i);
+      for (int d = 0; d < D; ++d) fluid_.pos[d][i] = pos_saved_[d][i] + dt * 0.5 * (fluid_.vel[d][i] + vel_saved_[d][i]);
       const real eps = -drho_[i] / fluid_.rho[i] * dt;
       fluid_.rho[i] = rho_saved_[i] * (2.0 - eps) / (2.0 + eps);
     }
@@ -854,6 +918,7 @@ const StepStats& Solver<D>::step() {
         vel_saved_[d][i] = v;
         fluid_.vel[d][i] = v_new;
       }
+      stop_wall_approach(i);
       const real r = fluid_.rho[i];
       fluid_.rho[i] = euler ? r + dt * drho_[i] : rho_saved_[i] + 2.0 * dt * drho_[i];
       rho_saved_[i] = r;

@@ -105,11 +105,11 @@ std::string series_file_name(const MonitorSpec& m) {
 template <int D>
 class TerrainWatch {
  public:
-  explicit TerrainWatch(const terrain::TerrainModel* model) : model_(model) {
+  TerrainWatch(const terrain::TerrainModel* model, double threshold) : model_(model), threshold_(threshold) {
     if (model_) grid_ = terrain::InundationGrid(*model_);
   }
   bool active() const { return model_ != nullptr; }
-  void update(const ParticleArrays<D>& f) {
+  void update(const ParticleArrays<D>& f, real t) {
     if constexpr (D == 3) {
       pos_.resize(f.size());
       vol_.resize(f.size());
@@ -119,7 +119,7 @@ class TerrainWatch {
         vol_[i] = f.mass[i] / f.rho[i];
         speed_[i] = std::sqrt(f.vel[0][i] * f.vel[0][i] + f.vel[1][i] * f.vel[1][i] + f.vel[2][i] * f.vel[2][i]);
       }
-      grid_.update(pos_, vol_, speed_);
+      grid_.update(pos_, vol_, speed_, t, threshold_);
     }
   }
   // Throws SimulationError naming the first misplaced particle and how many there are.
@@ -140,17 +140,101 @@ class TerrainWatch {
     }
   }
   const terrain::InundationGrid& grid() const { return grid_; }
+  // Fluid positions (local) and volumes at the last update.
+  const std::vector<Vec<3>>& positions() const { return pos_; }
+  const std::vector<real>& volumes() const { return vol_; }
 
  private:
   const terrain::TerrainModel* model_;
+  double threshold_;
   terrain::InundationGrid grid_;
   std::vector<Vec<3>> pos_;
   std::vector<real> vol_, speed_;
 };
 
 // Rasters (GeoTIFF in the DEM's CRS, aligned with its cells), the map PNG, and the terrain metrics.
+// Per protected zone: inundated area (cells whose centre is inside and whose max depth reaches the threshold),
+// the largest max depth inside, and the first arrival (the earliest time a cell inside reached the threshold;
+// -1 if none did).
+json zone_exposure(const terrain::TerrainModel& tm, const terrain::InundationGrid& g, double threshold) {
+  json zones = json::array();
+  const terrain::Grid& md = g.max_depth();
+  for (const auto& z : tm.protected_zones) {
+    double area = 0, depth = 0, arrival = -1;
+    for (int j = 0; j < md.ny; ++j)
+      for (int i = 0; i < md.nx; ++i) {
+        if (!terrain::inside_polygon(z.polygon, md.cx(i), md.cy(j))) continue;
+        const float d = md.at(i, j);
+        depth = std::max<double>(depth, d);
+        if (d >= threshold) area += md.cell_area();
+        const float a = g.arrival_time().at(i, j);
+        if (!std::isnan(a) && (arrival < 0 || a < arrival)) arrival = a;
+      }
+    zones.push_back({{"name", z.name}, {"inundated_area_m2", area}, {"max_depth_m", depth}, {"arrival_time_s", arrival}});
+  }
+  return zones;
+}
+
+// Runout: the largest horizontal distance from the release polygon's centroid to a cell whose max depth
+// reaches the threshold.
+double runout_distance(const terrain::TerrainModel& tm, const terrain::InundationGrid& g, double threshold) {
+  double cx = 0, cy = 0;
+  for (const auto& p : tm.release_polygon) cx += p[0], cy += p[1];
+  cx /= std::max<size_t>(1, tm.release_polygon.size());
+  cy /= std::max<size_t>(1, tm.release_polygon.size());
+  const terrain::Grid& md = g.max_depth();
+  double best = 0;
+  for (int j = 0; j < md.ny; ++j)
+    for (int i = 0; i < md.nx; ++i)
+      if (md.at(i, j) >= threshold) best = std::max(best, std::hypot(md.cx(i) - cx, md.cy(j) - cy));
+  return best;
+}
+
+// Flow volume each structure holds at the end: inside a deposition area's polygon; inside a basin's polygon
+// below its rim; for a check dam, upstream of its axis (within the axis' span) below its crest.
+double retained_volume(const terrain::TerrainModel& tm, const terrain::StructureInfo& st,
+                       const std::vector<Vec<3>>& pos, const std::vector<real>& vol) {
+  double v = 0;
+  for (size_t k = 0; k < pos.size(); ++k) {
+    const double x = pos[k][0] + tm.origin_x, y = pos[k][1] + tm.origin_y, z = pos[k][2];
+    bool held = false;
+    switch (st.kind) {
+      case terrain::StructureKind::deposition_area:
+        held = terrain::inside_polygon(st.outline, x, y);
+        break;
+      case terrain::StructureKind::retention_basin:
+        held = z < st.crest_elevation && terrain::inside_polygon(st.outline, x, y);
+        break;
+      case terrain::StructureKind::check_dam: {
+        if (z >= st.crest_elevation) break;
+        // Upstream of the axis: behind the segment nearest to the point, against the flow normal.
+        double best = 1e300;
+        bool upstream = false;
+        for (size_t s = 0; s + 1 < st.outline.size(); ++s) {
+          const double ax = st.outline[s][0], ay = st.outline[s][1];
+          const double bx = st.outline[s + 1][0] - ax, by = st.outline[s + 1][1] - ay;
+          const double len2 = bx * bx + by * by;
+          const double t = len2 > 0 ? ((x - ax) * bx + (y - ay) * by) / len2 : 0;
+          if (t < 0 || t > 1) continue;
+          const double px = ax + t * bx - x, py = ay + t * by - y;
+          const double d2 = px * px + py * py;
+          if (d2 < best) {
+            best = d2;
+            upstream = (x - ax) * st.flow_normal[0] + (y - ay) * st.flow_normal[1] < 0;
+          }
+        }
+        held = best < 1e300 && upstream;
+        break;
+      }
+    }
+    if (held) v += vol[k];
+  }
+  return v;
+}
+
 json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::InundationGrid& g,
-                           const OutputSettings& out, const fs::path& dir) {
+                           const OutputSettings& out, const fs::path& dir, const std::vector<Vec<3>>& final_pos,
+                           const std::vector<real>& final_vol) {
   fs::create_directories(dir / "rasters");
   terrain::write_geotiff((dir / "rasters" / "max_depth.tif").string(), g.max_depth());
   terrain::write_geotiff((dir / "rasters" / "max_speed.tif").string(), g.max_speed());
@@ -190,15 +274,18 @@ json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::Inund
                   {"cut_volume_m3", st.cut_volume},
                   {"fill_volume_m3", st.fill_volume},
                   {"crest_elevation_m", st.crest_elevation},
-                  {"storage_capacity_m3", st.storage_capacity}});
+                  {"storage_capacity_m3", st.storage_capacity},
+                  {"retained_volume_m3", retained_volume(tm, st, final_pos, final_vol)}});
   t["structures"] = ss;
   t["inundation"] = {{"threshold_m", out.inundation_threshold},
                      {"inundated_area_m2", g.inundated_area(out.inundation_threshold)},
                      {"max_depth_m", max_depth},
                      {"max_speed_m_s", max_speed},
                      {"cell_size_m", g.max_depth().dx},
+                     {"runout_m", runout_distance(tm, g, out.inundation_threshold)},
                      {"rasters", {"rasters/max_depth.tif", "rasters/max_speed.tif", "rasters/deposit_depth.tif",
                                   "rasters/max_depth.png"}}};
+  t["protected_zones"] = zone_exposure(tm, g, out.inundation_threshold);
   return t;
 }
 
@@ -235,7 +322,7 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
   const auto t0 = clock::now();
   auto last_progress = t0;
   long particle_steps = 0;
-  TerrainWatch<D> watch(scene.terrain.get());
+  TerrainWatch<D> watch(scene.terrain.get(), scene.output.inundation_threshold);
   // Monitors: each writes series/<type>_<name>.csv and its summary into metrics.json.
   std::vector<std::unique_ptr<Monitor<D>>> monitors;
   std::vector<std::ostringstream> monitor_rows(scene.monitors.size());
@@ -260,7 +347,7 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
   try {
     if (watch.active()) {
       watch.check(solver.fluid(), 0.0);
-      watch.update(solver.fluid());
+      watch.update(solver.fluid(), solver.time());
     }
     if (opt.snapshots) {
       write_vtp(opt.out_dir / "snapshots" / "snapshot_0000.vtp", solver);
@@ -282,7 +369,7 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
       for (auto& mon : monitors) mon->after_step(solver);
       if (solver.time() >= next_sample - 1e-12) {
         sample_monitors();
-        if (watch.active()) watch.update(solver.fluid());
+        if (watch.active()) watch.update(solver.fluid(), solver.time());
         sample(st);
         const auto e = solver.energy();
         max_ke_excess = std::max(max_ke_excess, e.kinetic - e.potential_released);
@@ -307,7 +394,7 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
     sum.error = e.what();
     if (sum.error.find("leaked") != std::string::npos) leaked = std::max<size_t>(1, std::strtoul(sum.error.c_str(), nullptr, 10));
   }
-  if (watch.active()) watch.update(solver.fluid());
+  if (watch.active()) watch.update(solver.fluid(), solver.time());
   sum.wall_seconds = std::chrono::duration<double>(clock::now() - t0).count();
   sum.steps = solver.steps();
   sum.simulated_time = solver.time();
@@ -393,7 +480,7 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
     mons.push_back(one);
   }
   m["monitors"] = mons;
-  if (watch.active()) m["terrain"] = write_terrain_outputs(*scene.terrain, watch.grid(), scene.output, opt.out_dir);
+  if (watch.active()) m["terrain"] = write_terrain_outputs(*scene.terrain, watch.grid(), scene.output, opt.out_dir, watch.positions(), watch.volumes());
   sum.metrics_json = m.dump(2);
   write_atomically(opt.out_dir / "metrics.json", sum.metrics_json + "\n");
   return sum;

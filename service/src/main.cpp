@@ -2,7 +2,13 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <algorithm>
+#include <chrono>
+#include <fstream>
 #include <iostream>
+#include <map>
+#include <memory>
+#include <sstream>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -11,19 +17,39 @@
 #include "progress.hpp"
 #include "runout/scenarios/run.hpp"
 #include "runout/scenarios/scene.hpp"
+#include "runout/scenarios/store.hpp"
+#include "runout/scenarios/study.hpp"
+#include "runout/scenarios/sweep.hpp"
 
 namespace {
 
 std::atomic<bool> g_stop{false};
 extern "C" void on_signal(int) { g_stop.store(true); }
 
-int cmd_run(const std::string& scene_path, const std::string& out_dir, bool snapshots, int threads, bool quiet) {
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+int cmd_run(const std::string& scene_path, const std::string& out_dir, bool snapshots, int threads, bool quiet,
+            const std::string& db_file) {
   runout::Scene scene;
   try {
     scene = runout::load_scene(scene_path);
   } catch (const runout::SceneError& e) {
     spdlog::error("scene refused: {}", e.what());
     return 2;
+  }
+  std::unique_ptr<runout::RunStore> store;
+  if (!db_file.empty()) {
+    try {
+      store = std::make_unique<runout::RunStore>(db_file);
+    } catch (const std::exception& e) {
+      spdlog::error("{}", e.what());
+      return 2;
+    }
   }
   std::filesystem::path out = out_dir.empty() ? std::filesystem::path("runs") / scene.name : std::filesystem::path(out_dir);
   std::signal(SIGINT, on_signal);
@@ -44,6 +70,27 @@ int cmd_run(const std::string& scene_path, const std::string& out_dir, bool snap
     return 1;
   }
   bar.finish();
+  if (store) {
+    // The scene as written is the run's identity (fidelity "scene": no preset applied).
+    runout::Fidelity as_written;
+    as_written.name = "scene";
+    const auto manifest = runout::make_manifest(read_text(scene_path), std::filesystem::path(scene_path).parent_path(),
+                                                as_written);
+    runout::RunStore::RunRecord r;
+    r.manifest_hash = manifest.hash;
+    r.manifest_json = manifest.json;
+    r.scene = scene.name;
+    r.fidelity = as_written.name;
+    r.status = s.status;
+    r.metrics_json = s.metrics_json;
+    r.series_csv = runout::read_series(out);
+    try {
+      const int64_t id = store->put_run(r);
+      spdlog::info("stored as run {} in {}", id, db_file);
+    } catch (const std::exception& e) {
+      spdlog::error("could not store the run: {}", e.what());
+    }
+  }
   if (s.status == "failed") {
     spdlog::error("run failed: {}", s.error);
     spdlog::info("partial metrics in {}", (out / "metrics.json").string());
@@ -53,6 +100,164 @@ int cmd_run(const std::string& scene_path, const std::string& out_dir, bool snap
                scene.name, s.status, s.steps, s.simulated_time, s.wall_seconds, s.particle_steps_per_second,
                out.string());
   return s.status == "completed" ? 0 : 130;
+}
+
+std::string fmt_value(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
+}
+
+// A table of every stored metric of the runs against the baseline, with differences in per cent.
+void print_comparison(const runout::Comparison& c, const std::string& filter, bool all) {
+  std::vector<std::string> header{"metric", c.baseline + " (base)"};
+  for (const auto& r : c.runs) header.push_back(r);
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& row : c.rows) {
+    if (!filter.empty() && row.metric.find(filter) == std::string::npos) continue;
+    bool differs = false;
+    for (const auto& v : row.values) differs = differs || v != row.baseline;
+    if (!all && !differs) continue;  // the same in every run (settings, particle counts): not a difference
+    std::vector<std::string> cells{row.metric, row.baseline ? fmt_value(*row.baseline) : "-"};
+    for (size_t k = 0; k < row.values.size(); ++k) {
+      std::string cell = row.values[k] ? fmt_value(*row.values[k]) : "-";
+      if (row.percent[k]) {
+        char buf[32];
+        std::snprintf(buf, sizeof buf, " (%+.1f%%)", *row.percent[k]);
+        cell += buf;
+      }
+      cells.push_back(cell);
+    }
+    rows.push_back(cells);
+  }
+  std::vector<size_t> width(header.size());
+  for (size_t k = 0; k < header.size(); ++k) width[k] = header[k].size();
+  for (const auto& r : rows)
+    for (size_t k = 0; k < r.size(); ++k) width[k] = std::max(width[k], r[k].size());
+  auto line = [&](const std::vector<std::string>& cells) {
+    for (size_t k = 0; k < cells.size(); ++k) {
+      std::printf(k == 0 ? "%-*s" : "  %*s", static_cast<int>(width[k]), cells[k].c_str());
+    }
+    std::printf("\n");
+  };
+  line(header);
+  for (const auto& r : rows) line(r);
+}
+
+int cmd_compare(const std::string& db_file, const std::string& sweep, const std::string& baseline,
+                const std::vector<int64_t>& ids, const std::string& filter, bool all) {
+  try {
+    runout::RunStore store(db_file);
+    std::vector<int64_t> runs = ids;
+    int64_t base = 0;
+    if (runs.empty()) {
+      if (sweep.empty()) {
+        spdlog::error("compare: name a --sweep or give --runs");
+        return 2;
+      }
+      // The latest stored run of each variant of the sweep, in variant order of first appearance.
+      std::vector<std::string> order;
+      std::map<std::string, int64_t> latest;
+      for (const auto& r : store.list_runs(sweep)) {
+        if (r.status != "completed") continue;
+        if (!latest.count(r.variant)) order.push_back(r.variant);
+        latest[r.variant] = r.id;
+      }
+      if (order.empty()) {
+        spdlog::error("compare: no completed runs of sweep '{}' in {}", sweep, db_file);
+        return 2;
+      }
+      std::sort(order.begin(), order.end());
+      const std::string base_name = baseline.empty() ? order.front() : baseline;
+      if (!latest.count(base_name)) {
+        spdlog::error("compare: --baseline '{}' is not a completed variant of sweep '{}'", base_name, sweep);
+        return 2;
+      }
+      base = latest[base_name];
+      for (const auto& v : order)
+        if (v != base_name) runs.push_back(latest[v]);
+    } else {
+      base = runs.front();
+      if (!baseline.empty()) base = std::stoll(baseline);
+      runs.erase(std::remove(runs.begin(), runs.end(), base), runs.end());
+    }
+    print_comparison(runout::compare_runs(store, runs, base), filter, all);
+  } catch (const std::exception& e) {
+    spdlog::error("compare: {}", e.what());
+    return 2;
+  }
+  return 0;
+}
+
+int cmd_sweep(const std::string& sweep_path, const std::string& fidelity, double dp, int jobs, int threads,
+              const std::string& db_file, const std::string& out_root, bool compare) {
+  runout::Sweep sweep;
+  runout::SweepOptions opt;
+  try {
+    if (!fidelity.empty() || dp > 0) {
+      opt.fidelity_override = true;
+      opt.fidelity.name = fidelity.empty() ? "custom" : fidelity;
+      if (dp > 0) opt.fidelity.dp = dp;
+    }
+    sweep = runout::load_sweep(sweep_path);
+    if (opt.fidelity_override)  // validate the variants at the fidelity that will run
+      for (const auto& v : sweep.variants)
+        (void)runout::parse_scene(runout::resolve_variant(sweep.base_json, v, opt.fidelity), sweep.base_path.parent_path());
+  } catch (const runout::SceneError& e) {
+    spdlog::error("sweep refused: {}", e.what());
+    return 2;
+  }
+  std::unique_ptr<runout::RunStore> store;
+  try {
+    store = std::make_unique<runout::RunStore>(db_file);
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 2;
+  }
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  opt.out_root = out_root;
+  opt.jobs = jobs;
+  opt.threads = threads;
+  opt.stop = &g_stop;
+  const auto t0 = std::chrono::steady_clock::now();
+  size_t done = 0;
+  double run_wall = 0;
+  size_t ran = 0;
+  std::map<size_t, runout::RunProgress> live;
+  opt.on_event = [&](const runout::SweepEvent& e) {
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (e.kind == runout::SweepEvent::finished) {
+      ++done;
+      live.erase(e.index);
+      if (!e.result.reused) {
+        run_wall += e.result.wall_seconds;
+        ++ran;
+      }
+      const size_t left = e.total - done;
+      const double per_run = ran ? run_wall / ran : 0;
+      const double eta = per_run * left / std::max(1, opt.jobs);
+      std::fprintf(stderr, "[%zu/%zu] %s %s%s (run %lld) %.1f s%s%s   sweep %.0f s elapsed, ETA %.0f s\n", done,
+                   e.total, e.variant.c_str(), e.result.status.c_str(), e.result.reused ? ", already stored" : "",
+                   static_cast<long long>(e.result.run_id), e.result.wall_seconds, e.result.error.empty() ? "" : ": ",
+                   e.result.error.c_str(), elapsed, eta);
+    } else if (e.kind == runout::SweepEvent::started) {
+      live[e.index] = {};
+    }
+  };
+  const auto result = runout::run_sweep(*store, sweep, opt);
+  size_t completed = 0;
+  for (const auto& r : result.runs) completed += r.status == "completed";
+  spdlog::info("sweep {}: {} of {} runs completed; stored in {}", sweep.name, completed, result.runs.size(), db_file);
+  if (g_stop.load()) {
+    spdlog::warn("stopped: finished runs are stored; run the same command again to resume");
+    return 130;
+  }
+  if (compare && completed > 0) {
+    std::printf("\n");
+    cmd_compare(db_file, sweep.name, "", {}, "", false);
+  }
+  return completed == result.runs.size() ? 0 : 3;
 }
 
 }  // namespace
@@ -72,8 +277,40 @@ int main(int argc, char** argv) {
   run->add_flag("--snapshots", snapshots, "Write particle snapshots (.vtp) under OUT/snapshots/");
   run->add_option("--threads,-j", threads, "OpenMP threads (default: all cores)")->check(CLI::Range(0, 1024));
   run->add_flag("--quiet,-q", quiet, "No progress bar");
+  std::string db_file = "runout.db";
+  bool no_db = false;
+  run->add_option("--db", db_file, "Run store (SQLite) the run is put in")->capture_default_str();
+  run->add_flag("--no-db", no_db, "Do not store the run");
+
+  std::string sweep_path, fidelity, sweep_out = "runs";
+  double dp = 0;
+  int jobs = 1;
+  bool no_compare = false;
+  auto* sweep = app.add_subcommand("sweep", "Run every layout of a sweep, store each run, print the comparison");
+  sweep->add_option("sweep", sweep_path, "Sweep file (JSON)")->required();
+  sweep->add_option("--fidelity", fidelity, "draft | standard | fine (default: the sweep's)")
+      ->check(CLI::IsMember({"draft", "standard", "fine"}));
+  sweep->add_option("--dp", dp, "Explicit particle spacing [m] instead of a preset")->check(CLI::Range(1e-4, 1e3));
+  sweep->add_option("--jobs", jobs, "Runs at once (each gets the cores divided among the jobs)")->check(CLI::Range(1, 64));
+  sweep->add_option("--threads,-j", threads, "OpenMP threads per run (default: cores / jobs)")->check(CLI::Range(0, 1024));
+  sweep->add_option("--db", db_file, "Run store (SQLite)")->capture_default_str();
+  sweep->add_option("--out,-o", sweep_out, "Outputs go to OUT/<sweep>/<variant>")->capture_default_str();
+  sweep->add_flag("--no-compare", no_compare, "Do not print the comparison at the end");
+
+  std::string compare_sweep, baseline, filter;
+  std::vector<int64_t> compare_ids;
+  bool all_rows = false;
+  auto* compare = app.add_subcommand("compare", "Print every stored metric of runs against a baseline, in per cent");
+  compare->add_option("--sweep", compare_sweep, "Compare the latest completed run of each variant of this sweep");
+  compare->add_option("--baseline", baseline, "Baseline variant (default: the first by name, C0 / G0) or run id");
+  compare->add_option("--runs", compare_ids, "Run ids instead of a sweep (the first is the baseline)");
+  compare->add_option("--filter", filter, "Only metrics whose name contains this");
+  compare->add_flag("--all", all_rows, "Also rows that are the same in every run");
+  compare->add_option("--db", db_file, "Run store (SQLite)")->capture_default_str();
 
   CLI11_PARSE(app, argc, argv);
-  if (run->parsed()) return cmd_run(scene_path, out_dir, snapshots, threads, quiet);
+  if (run->parsed()) return cmd_run(scene_path, out_dir, snapshots, threads, quiet, no_db ? "" : db_file);
+  if (sweep->parsed()) return cmd_sweep(sweep_path, fidelity, dp, jobs, threads, db_file, sweep_out, !no_compare);
+  if (compare->parsed()) return cmd_compare(db_file, compare_sweep, baseline, compare_ids, filter, all_rows);
   return 0;
 }

@@ -20,10 +20,11 @@ InundationGrid::InundationGrid(const TerrainModel& model)
   max_depth_ = terrain_.like(0.0f);
   max_speed_ = terrain_.like(0.0f);
   depth_ = terrain_.like(0.0f);
+  arrival_ = terrain_.like(Grid::nodata);
 }
 
 void InundationGrid::update(const std::vector<Vec<3>>& positions, const std::vector<real>& volumes,
-                            const std::vector<real>& speeds) {
+                            const std::vector<real>& speeds, double time, double threshold) {
   std::fill(depth_.values.begin(), depth_.values.end(), 0.0f);
   const double h = 0.5 * dp_, inv_area = 1.0 / terrain_.cell_area();
   const Grid& g = terrain_;
@@ -44,8 +45,11 @@ void InundationGrid::update(const std::vector<Vec<3>>& positions, const std::vec
     int i, j;
     if (g.cell_of(x, y, i, j)) max_speed_.at(i, j) = std::max(max_speed_.at(i, j), static_cast<float>(speeds[p]));
   }
-  for (size_t c = 0; c < depth_.values.size(); ++c)
+  for (size_t c = 0; c < depth_.values.size(); ++c) {
     max_depth_.values[c] = std::max(max_depth_.values[c], depth_.values[c]);
+    if (threshold > 0 && std::isnan(arrival_.values[c]) && depth_.values[c] >= threshold)
+      arrival_.values[c] = static_cast<float>(time);
+  }
 }
 
 double InundationGrid::inundated_area(double threshold) const {

@@ -7,6 +7,7 @@
 // call per batch, none per pair). A new model is a new class deriving from Rheology plus one line in
 // `rheology_registry()` (rheology.cpp).
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <span>
@@ -44,10 +45,18 @@ class Rheology {
   // mu_eff[k] for shear rate gamma_dot[k] (already floored) and pressure p[k].
   virtual void effective_viscosity(std::span<const real> gamma_dot, std::span<const real> pressure,
                                    std::span<real> mu_eff) const = 0;
+  // Coulomb coefficient of the material's contact with a wall (0: none). When positive, the wall's shear on a
+  // particle is the rheology at zero confining pressure (viscous and cohesive part) plus Coulomb friction,
+  // coefficient times the normal force the wall exerts on the particle: the basal normal stress, which a thin
+  // sheet's own SPH pressure does not carry (docs/design.md, "Basal friction").
+  virtual real wall_friction_coefficient() const { return 0.0; }
   // Yield stress at pressure p (0 for fluids without one); used by reports and tests.
   virtual real yield_stress(real pressure) const { return 0.0; }
   // Whether the stress term can be skipped entirely (an inviscid fluid).
   virtual bool is_inviscid() const { return false; }
+  // The largest isotropic tension the material carries [Pa]; the solver floors its pressure at minus this.
+  // Liquids: unlimited (the equation of state's own). A Mohr-Coulomb material: c cot(phi), none when c = 0.
+  virtual real tensile_strength() const { return std::numeric_limits<real>::infinity(); }
 };
 
 using RheologyFactory = std::function<std::unique_ptr<Rheology>(const MaterialParams&)>;
@@ -98,6 +107,12 @@ class HerschelBulkleyPapanastasiou : public Rheology {
 class FrictionHBP final : public Rheology {
  public:
   FrictionHBP(real consistency, real flow_index, real regularisation, real friction_angle_deg, real cohesion);
+  // In simple shear the yield stress is P sin(phi): at a bed whose normal stress is P, the Coulomb
+  // coefficient is sin(phi) (the infinite-slope threshold tan(slope) = sin(phi) of tests/engine).
+  real wall_friction_coefficient() const override { return sin_phi_; }
+  real tensile_strength() const override {
+    return sin_phi_ > 0 ? cohesion_ * cos_phi_ / sin_phi_ : std::numeric_limits<real>::infinity();
+  }
   void effective_viscosity(std::span<const real> gamma_dot, std::span<const real> pressure,
                            std::span<real> mu_eff) const override;
   real yield_stress(real pressure) const override {

@@ -24,6 +24,11 @@ enum class DensityDiffusion { none, molteni, fourtakas };
 // hydrostatic term), which has no memory and so no pressure cushion under a thinning, spreading layer.
 enum class BoundaryPressure { dbc, extrapolated };
 
+// Wall contact: a fluid particle closer than kWallContact dp to a wall particle loses the velocity component
+// towards the wall. A resting particle sits dp above the bed lattice and 0.9 dp from the next terrain column's
+// top particle on a 30 deg staircase; every face of the lattice (0.71 dp from its corners) is covered.
+constexpr real kWallContact = 0.75;
+
 struct SolverConfig {
   real dp = 0.01;                   // initial particle spacing [m]
   real smoothing_length = 0.013;    // h [m]
@@ -152,6 +157,10 @@ class Solver {
   // fluid per-particle work arrays
   std::array<std::vector<real>, D> acc_;
   std::vector<real> drho_, pressure_, mu_eff_, shear_rate_;
+  std::vector<real> yield_pressure_;  // kernel-averaged pressure the rheology's yield stress sees
+  std::vector<real> mu_wall_;         // viscosity of the wall side of fluid-wall pairs (friction rheologies: at p = 0)
+  std::vector<real> zero_pressure_;
+  std::array<std::vector<real>, D> contact_normal_;  // wall normal of particles in wall contact, else 0
   std::array<std::vector<real>, D> pos_saved_, vel_saved_;
   std::vector<real> rho_saved_;
   // boundary work arrays

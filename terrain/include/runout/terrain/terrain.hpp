@@ -140,18 +140,21 @@ class InundationGrid {
   InundationGrid() = default;
   explicit InundationGrid(const TerrainModel& model);
   // positions local; volume = m / rho; speed = |v|
+  // `time` and `threshold` record each cell's first arrival: the first update at which its depth reaches
+  // the threshold.
   void update(const std::vector<Vec<3>>& positions, const std::vector<real>& volumes,
-              const std::vector<real>& speeds);
+              const std::vector<real>& speeds, double time = 0.0, double threshold = 0.0);
   const Grid& max_depth() const { return max_depth_; }
   const Grid& max_speed() const { return max_speed_; }
   const Grid& depth() const { return depth_; }
   const Grid& terrain() const { return terrain_; }
+  const Grid& arrival_time() const { return arrival_; }  // [s]; NaN where the flow never reached the threshold
   // Cells with max depth >= threshold, times the cell area.
   double inundated_area(double threshold) const;
 
  private:
   double origin_x_ = 0, origin_y_ = 0, dp_ = 0;
-  Grid terrain_, max_depth_, max_speed_, depth_;
+  Grid terrain_, max_depth_, max_speed_, depth_, arrival_;
 };
 
 }  // namespace runout::terrain

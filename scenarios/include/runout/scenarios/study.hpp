@@ -1,0 +1,64 @@
+#pragma once
+// Running a sweep and storing what it measures: every variant of a sweep is resolved at a fidelity, run
+// (several at once with --jobs), and its metrics and series are put in the run store under the run's
+// manifest hash. A variant whose manifest is already stored as completed is not run again, so an
+// interrupted sweep resumes where it stopped. The CLI (`runout sweep`) and the HTTP service share this.
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "runout/scenarios/run.hpp"
+#include "runout/scenarios/store.hpp"
+#include "runout/scenarios/sweep.hpp"
+
+namespace runout {
+
+// Every series/*.csv under a run directory, keyed by file stem ("run", "section_S1").
+std::map<std::string, std::string> read_series(const std::filesystem::path& run_dir);
+
+// Runs one resolved scene (JSON text) to `out_dir` and stores it; returns the stored run's id and status.
+// A completed run with the same manifest already in the store is returned as it is (reused = true).
+struct StoredRun {
+  int64_t run_id = 0;
+  std::string status;  // completed | failed | stopped
+  std::string error;
+  bool reused = false;
+  double wall_seconds = 0;
+};
+struct StoreRunOptions {
+  std::string sweep, variant;
+  Fidelity fidelity;
+  RunOptions run;  // out_dir, threads, progress, stop
+};
+StoredRun run_and_store(RunStore& store, const std::string& resolved_json, const std::filesystem::path& base_dir,
+                        const StoreRunOptions& options);
+
+struct SweepEvent {
+  enum Kind { started, progress, finished } kind;
+  std::string variant;
+  size_t index = 0, total = 0;  // the variant's position in the sweep, and the sweep's size
+  RunProgress progress_info;    // kind == progress
+  StoredRun result;             // kind == finished
+};
+
+struct SweepOptions {
+  std::filesystem::path out_root = "runs";  // a run's outputs go to out_root/<sweep>/<variant>
+  Fidelity fidelity;                        // overrides the sweep's when fidelity_override
+  bool fidelity_override = false;
+  int jobs = 1;     // runs at once
+  int threads = 0;  // OpenMP threads per run; 0: the cores divided among the jobs
+  const std::atomic<bool>* stop = nullptr;
+  std::function<void(const SweepEvent&)> on_event;  // called from worker threads, one call at a time
+};
+
+struct SweepResult {
+  std::vector<std::string> variants;
+  std::vector<StoredRun> runs;  // one per variant, in the sweep's order (status "not run" if stopped first)
+};
+
+SweepResult run_sweep(RunStore& store, const Sweep& sweep, const SweepOptions& options);
+
+}  // namespace runout

@@ -1,0 +1,120 @@
+#include "runout/scenarios/study.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+namespace runout {
+
+namespace fs = std::filesystem;
+
+std::map<std::string, std::string> read_series(const fs::path& run_dir) {
+  std::map<std::string, std::string> out;
+  const fs::path dir = run_dir / "series";
+  if (!fs::is_directory(dir)) return out;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (!e.is_regular_file() || e.path().extension() != ".csv") continue;
+    std::ifstream in(e.path(), std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    out[e.path().stem().string()] = s.str();
+  }
+  return out;
+}
+
+StoredRun run_and_store(RunStore& store, const std::string& resolved_json, const fs::path& base_dir,
+                        const StoreRunOptions& options) {
+  const Manifest manifest = make_manifest(resolved_json, base_dir, options.fidelity);
+  StoredRun out;
+  if (const auto id = store.find_run(manifest.hash)) {
+    const auto row = store.get_run(*id);
+    if (row && row->status == "completed") {
+      out.run_id = *id;
+      out.status = row->status;
+      out.reused = true;
+      return out;
+    }
+  }
+  const Scene scene = parse_scene(resolved_json, base_dir);
+  fs::remove_all(options.run.out_dir);  // a stale or half-written directory from an interrupted run
+  const RunSummary s = run_scene(scene, options.run);
+  out.status = s.status;
+  out.error = s.error;
+  out.wall_seconds = s.wall_seconds;
+  RunStore::RunRecord r;
+  r.manifest_hash = manifest.hash;
+  r.manifest_json = manifest.json;
+  r.sweep = options.sweep;
+  r.variant = options.variant;
+  r.scene = scene.name;
+  r.fidelity = options.fidelity.dp ? "custom" : options.fidelity.name;
+  r.status = s.status;
+  r.metrics_json = s.metrics_json;
+  r.series_csv = read_series(options.run.out_dir);
+  out.run_id = store.put_run(r);
+  return out;
+}
+
+SweepResult run_sweep(RunStore& store, const Sweep& sweep, const SweepOptions& options) {
+  const Fidelity fidelity = options.fidelity_override ? options.fidelity : sweep.fidelity;
+  const size_t n = sweep.variants.size();
+  SweepResult result;
+  result.runs.resize(n);
+  for (const auto& v : sweep.variants) result.variants.push_back(v.name);
+  for (auto& r : result.runs) r.status = "not run";
+
+  const int jobs = std::clamp(options.jobs, 1, static_cast<int>(std::max<size_t>(n, 1)));
+  const int threads = options.threads > 0 ? options.threads : std::max(1, omp_get_num_procs() / jobs);
+  const fs::path base_dir = sweep.base_path.parent_path();
+  std::mutex event_mutex;
+  auto emit = [&](const SweepEvent& e) {
+    if (!options.on_event) return;
+    std::lock_guard lock(event_mutex);
+    options.on_event(e);
+  };
+  std::atomic<size_t> next{0};
+  auto worker = [&] {
+    for (;;) {
+      if (options.stop && options.stop->load()) return;
+      const size_t k = next.fetch_add(1);
+      if (k >= n) return;
+      const SweepVariant& v = sweep.variants[k];
+      SweepEvent e{SweepEvent::started, v.name, k, n, {}, {}};
+      emit(e);
+      StoreRunOptions o;
+      o.sweep = sweep.name;
+      o.variant = v.name;
+      o.fidelity = fidelity;
+      o.run.out_dir = options.out_root / sweep.name / v.name;
+      o.run.threads = threads;
+      o.run.stop = options.stop;
+      o.run.on_progress = [&, k](const RunProgress& p) {
+        SweepEvent pe{SweepEvent::progress, sweep.variants[k].name, k, n, p, {}};
+        emit(pe);
+      };
+      StoredRun r;
+      try {
+        r = run_and_store(store, resolve_variant(sweep.base_json, v, fidelity), base_dir, o);
+      } catch (const std::exception& ex) {
+        r.status = "failed";
+        r.error = ex.what();
+      }
+      result.runs[k] = r;
+      SweepEvent fe{SweepEvent::finished, v.name, k, n, {}, r};
+      emit(fe);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int j = 1; j < jobs; ++j) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+  return result;
+}
+
+}  // namespace runout
