@@ -1,21 +1,22 @@
 #!/usr/bin/env python3
 """Writes scenarios/flume/flume_dem.asc (+ .prj): the synthetic laboratory flume of the C0-C7 study.
 
-A 32 degree chute 3 m long (plan) with a rectangular-ish channel 0.30 m wide between banks 0.20 m high,
-then a 3 degree run-out plain 2.2 m long where the banks fade out and the flow spreads. Plan 5.2 m x 1.2 m,
+A 38 degree chute 3 m long (plan) with a rectangular-ish channel 0.30 m wide between banks 0.20 m high,
+then a 3 degree run-out plain 3.0 m long where the banks fade out and the flow spreads. Plan 6.0 m x 1.2 m,
 2 cm cells, UTM 32N (EPSG:32632) with the lower-left corner at (500000, 5000000). Local coordinates in the
 comments and in docs/study.md are metres from that corner: x downstream (east), y across (north), the
 channel centre line at y = 0.6. Pure Python, no dependencies: `python3 scripts/make_flume_dem.py`.
 """
+import argparse
 import math
 import os
 
 CELL = 0.02
-NX, NY = 260, 60            # 5.2 m x 1.2 m
+NX, NY = 300, 60            # 6.0 m x 1.2 m
 X0, Y0 = 500000.0, 5000000.0
 X_KINK = 3.0                # chute foot (plan distance from the top)
 Z_KINK = 0.5                # its elevation
-CHUTE = math.radians(32.0)
+CHUTE = math.radians(38.0)
 PLAIN = math.radians(3.0)
 BLEND = 0.15                # half-length of the rounded chute foot
 Y_AXIS, HALF_WIDTH, BANK, BANK_RAMP = 0.6, 0.15, 0.20, 0.04
@@ -50,7 +51,14 @@ def elevation(x, y):
 
 
 def main():
-    here = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scenarios", "flume")
+    global CHUTE
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--chute-deg", type=float, default=math.degrees(CHUTE), help="chute inclination [deg]")
+    ap.add_argument("--out", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scenarios", "flume"),
+                    help="directory for flume_dem.asc and .prj")
+    args = ap.parse_args()
+    CHUTE = math.radians(args.chute_deg)
+    here = args.out
     lines = [f"ncols {NX}", f"nrows {NY}", f"xllcorner {X0:.3f}", f"yllcorner {Y0:.3f}", f"cellsize {CELL}",
              "NODATA_value -9999"]
     for r in range(NY):  # row 0 is the north edge

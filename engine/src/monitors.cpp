@@ -13,8 +13,10 @@ namespace runout {
 namespace {
 
 // Flow through a section: each particle's side (upstream -1, downstream +1, 0 beyond the section's ends)
-// is remembered by id; a particle crossing upstream -> downstream adds its volume m/rho to the volume
-// passed, one crossing back subtracts it. Q is the volume passed between two samples over their interval.
+// is remembered by id; a particle crossing upstream -> downstream adds its volume to the volume passed, one
+// crossing back subtracts it. Q is the volume passed between two samples over their interval. A particle's
+// volume is m/rho0 (debris at its bulk density), not the SPH m/rho: a cohesionless material carries no
+// tension, so a thin spreading sheet's kernel density falls below rho0 and m/rho would count it up to twice.
 template <int D>
 class SectionGauge final : public Monitor<D> {
  public:
@@ -23,6 +25,7 @@ class SectionGauge final : public Monitor<D> {
       throw std::invalid_argument("monitor '" + spec.name + "': a section needs " +
                                   std::string(D == 3 ? "at least 2 points" : "1 point"));
     const auto& f = s.fluid();
+    for (const auto& m : s.materials()) inv_rho0_.push_back(1 / m.density);
     side_.assign(f.size(), 0);
     // Downstream is the side away from where the flow starts.
     long pos = 0, neg = 0;
@@ -31,7 +34,7 @@ class SectionGauge final : public Monitor<D> {
       const int raw = raw_side(f, i);
       pos += raw > 0;
       neg += raw < 0;
-      volume += f.mass[i] / f.rho[i];
+      volume += f.mass[i] * inv_rho0_[f.material[i]];
     }
     downstream_ = pos > neg ? -1 : 1;
     for (size_t i = 0; i < f.size(); ++i) side_[f.id[i]] = static_cast<int8_t>(raw_side(f, i) * downstream_);
@@ -48,8 +51,8 @@ class SectionGauge final : public Monitor<D> {
       const int now = raw_side(f, i) * downstream_;
       if (now == 0) continue;
       int8_t& before = side_[f.id[i]];
-      if (before == -1 && now == 1) dv += f.mass[i] / f.rho[i];
-      if (before == 1 && now == -1) dv -= f.mass[i] / f.rho[i];
+      if (before == -1 && now == 1) dv += f.mass[i] * inv_rho0_[f.material[i]];
+      if (before == 1 && now == -1) dv -= f.mass[i] * inv_rho0_[f.material[i]];
       before = static_cast<int8_t>(now);
     }
     passed_ += dv;
@@ -76,6 +79,7 @@ class SectionGauge final : public Monitor<D> {
  private:
   std::vector<std::array<real, 2>> pts_;
   std::vector<int8_t> side_;  // by particle id
+  std::vector<real> inv_rho0_;  // by material
   int downstream_ = 1;
   real arrival_volume_ = 0, passed_ = 0, last_passed_ = 0, last_t_ = 0;
   real peak_ = 0, peak_time_ = 0, arrival_time_ = -1;

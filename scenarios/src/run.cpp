@@ -109,14 +109,15 @@ class TerrainWatch {
     if (model_) grid_ = terrain::InundationGrid(*model_);
   }
   bool active() const { return model_ != nullptr; }
-  void update(const ParticleArrays<D>& f, real t) {
+  // Volumes are m/rho0, debris at its bulk density (see the section gauge in engine/src/monitors.cpp).
+  void update(const ParticleArrays<D>& f, const std::vector<MaterialParams>& materials, real t) {
     if constexpr (D == 3) {
       pos_.resize(f.size());
       vol_.resize(f.size());
       speed_.resize(f.size());
       for (size_t i = 0; i < f.size(); ++i) {
         pos_[i] = Vec<3>(f.pos[0][i], f.pos[1][i], f.pos[2][i]);
-        vol_[i] = f.mass[i] / f.rho[i];
+        vol_[i] = f.mass[i] / materials[f.material[i]].density;
         speed_[i] = std::sqrt(f.vel[0][i] * f.vel[0][i] + f.vel[1][i] * f.vel[1][i] + f.vel[2][i] * f.vel[2][i]);
       }
       grid_.update(pos_, vol_, speed_, t, threshold_);
@@ -192,8 +193,10 @@ double runout_distance(const terrain::TerrainModel& tm, const terrain::Inundatio
 
 // Flow volume each structure holds at the end: inside a deposition area's polygon; inside a basin's polygon
 // below its rim; for a check dam, upstream of its axis (within the axis' span) below its crest.
+// below_rim = false: a check dam's whole upstream volume (within its span, at any height), the flow it held
+// back; its deposit wedge on a steep bed mostly stands above the crest. Basins and deposition areas as above.
 double retained_volume(const terrain::TerrainModel& tm, const terrain::StructureInfo& st,
-                       const std::vector<Vec<3>>& pos, const std::vector<real>& vol) {
+                       const std::vector<Vec<3>>& pos, const std::vector<real>& vol, bool below_rim = true) {
   double v = 0;
   for (size_t k = 0; k < pos.size(); ++k) {
     const double x = pos[k][0] + tm.origin_x, y = pos[k][1] + tm.origin_y, z = pos[k][2];
@@ -206,7 +209,7 @@ double retained_volume(const terrain::TerrainModel& tm, const terrain::Structure
         held = z < st.crest_elevation && terrain::inside_polygon(st.outline, x, y);
         break;
       case terrain::StructureKind::check_dam: {
-        if (z >= st.crest_elevation) break;
+        if (below_rim && z >= st.crest_elevation) break;
         // Upstream of the axis: behind the segment nearest to the point, against the flow normal.
         double best = 1e300;
         bool upstream = false;
@@ -259,6 +262,11 @@ json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::Inund
   float max_depth = 0, max_speed = 0;
   for (float v : g.max_depth().values) max_depth = std::max(max_depth, v);
   for (float v : g.max_speed().values) max_speed = std::max(max_speed, v);
+  // The deposit: the flow's depth at the end of the run (the study compares its thickness and extent).
+  float deposit_max = 0;
+  size_t deposit_cells = 0;
+  for (float v : g.depth().values)
+    if (!std::isnan(v)) deposit_max = std::max(deposit_max, v), deposit_cells += v >= out.inundation_threshold;
   json t;
   t["crs"] = terrain::crs_name(tm.dem.crs_wkt);
   t["local_origin_m"] = {tm.origin_x, tm.origin_y};
@@ -276,6 +284,9 @@ json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::Inund
                   {"crest_elevation_m", st.crest_elevation},
                   {"storage_capacity_m3", st.storage_capacity},
                   {"retained_volume_m3", retained_volume(tm, st, final_pos, final_vol)}});
+  for (size_t k = 0; k < tm.structures.size(); ++k)
+    if (tm.structures[k].kind == terrain::StructureKind::check_dam)
+      ss[k]["upstream_volume_m3"] = retained_volume(tm, tm.structures[k], final_pos, final_vol, false);
   t["structures"] = ss;
   t["inundation"] = {{"threshold_m", out.inundation_threshold},
                      {"inundated_area_m2", g.inundated_area(out.inundation_threshold)},
@@ -283,6 +294,8 @@ json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::Inund
                      {"max_speed_m_s", max_speed},
                      {"cell_size_m", g.max_depth().dx},
                      {"runout_m", runout_distance(tm, g, out.inundation_threshold)},
+                     {"deposit_max_depth_m", deposit_max},
+                     {"deposit_area_m2", deposit_cells * g.depth().cell_area()},
                      {"rasters", {"rasters/max_depth.tif", "rasters/max_speed.tif", "rasters/deposit_depth.tif",
                                   "rasters/max_depth.png"}}};
   t["protected_zones"] = zone_exposure(tm, g, out.inundation_threshold);
@@ -347,7 +360,7 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
   try {
     if (watch.active()) {
       watch.check(solver.fluid(), 0.0);
-      watch.update(solver.fluid(), solver.time());
+      watch.update(solver.fluid(), solver.materials(), solver.time());
     }
     if (opt.snapshots) {
       write_vtp(opt.out_dir / "snapshots" / "snapshot_0000.vtp", solver);
@@ -369,7 +382,7 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
       for (auto& mon : monitors) mon->after_step(solver);
       if (solver.time() >= next_sample - 1e-12) {
         sample_monitors();
-        if (watch.active()) watch.update(solver.fluid(), solver.time());
+        if (watch.active()) watch.update(solver.fluid(), solver.materials(), solver.time());
         sample(st);
         const auto e = solver.energy();
         max_ke_excess = std::max(max_ke_excess, e.kinetic - e.potential_released);
@@ -394,7 +407,7 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
     sum.error = e.what();
     if (sum.error.find("leaked") != std::string::npos) leaked = std::max<size_t>(1, std::strtoul(sum.error.c_str(), nullptr, 10));
   }
-  if (watch.active()) watch.update(solver.fluid(), solver.time());
+  if (watch.active()) watch.update(solver.fluid(), solver.materials(), solver.time());
   sum.wall_seconds = std::chrono::duration<double>(clock::now() - t0).count();
   sum.steps = solver.steps();
   sum.simulated_time = solver.time();

@@ -1,6 +1,8 @@
 // The `runout` command.
 #include <csignal>
+#include <cctype>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <algorithm>
 #include <chrono>
@@ -9,12 +11,14 @@
 #include <map>
 #include <memory>
 #include <sstream>
+#include <thread>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "progress.hpp"
+#include "server.hpp"
 #include "runout/scenarios/run.hpp"
 #include "runout/scenarios/scene.hpp"
 #include "runout/scenarios/store.hpp"
@@ -260,6 +264,58 @@ int cmd_sweep(const std::string& sweep_path, const std::string& fidelity, double
   return completed == result.runs.size() ? 0 : 3;
 }
 
+// `runout serve`: the HTTP service until SIGINT/SIGTERM (running jobs go back to the queue).
+int cmd_serve(runout::service::ServeOptions opt, const std::string& token_file, bool verbose) {
+  if (verbose) spdlog::set_level(spdlog::level::debug);
+  if (!token_file.empty()) {
+    std::ifstream in(token_file, std::ios::binary);
+    if (!in) {
+      spdlog::error("serve: cannot read the token file {}", token_file);
+      return 2;
+    }
+    std::ostringstream s;
+    s << in.rdbuf();
+    opt.token = s.str();
+    while (!opt.token.empty() && std::isspace(static_cast<unsigned char>(opt.token.back()))) opt.token.pop_back();
+    if (opt.token.empty()) {
+      spdlog::error("serve: the token file {} is empty", token_file);
+      return 2;
+    }
+  } else if (const char* env = std::getenv("RUNOUT_TOKEN"); env && *env) {
+    opt.token = env;
+  }
+  std::unique_ptr<runout::service::Server> server;
+  int port = 0;
+  try {
+    server = std::make_unique<runout::service::Server>(opt);
+    port = server->start();
+  } catch (const std::exception& e) {
+    spdlog::error("serve: {}", e.what());
+    return 2;
+  }
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  std::signal(SIGPIPE, SIG_IGN);
+  // The token itself is never printed.
+  std::printf("runout serve: listening on http://%s:%d/api/v1 (db %s, %d workers, writes %s)\n", opt.host.c_str(), port,
+              opt.db.c_str(), opt.workers, opt.token.empty() ? "open" : "need the bearer token");
+  std::fflush(stdout);
+  std::thread watcher([&] {
+    while (!g_stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    server->stop();
+  });
+  const bool ok = server->serve();
+  g_stop.store(true);
+  watcher.join();
+  server.reset();
+  if (!ok) {
+    spdlog::error("serve: listening on {}:{} failed", opt.host, port);
+    return 1;
+  }
+  spdlog::info("serve: stopped");
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -308,7 +364,39 @@ int main(int argc, char** argv) {
   compare->add_flag("--all", all_rows, "Also rows that are the same in every run");
   compare->add_option("--db", db_file, "Run store (SQLite)")->capture_default_str();
 
+  runout::service::ServeOptions serve_opt;
+  std::string token_file, serve_db = "runout.db", serve_runs = "runs", scene_dir = ".";
+  bool verbose = false;
+  auto* serve = app.add_subcommand("serve", "Run the HTTP service: a job queue and the run store over a JSON API");
+  serve->add_option("--host", serve_opt.host, "Address to bind (loopback by default)")->capture_default_str();
+  serve->add_option("--port", serve_opt.port, "Port (0: any free port, printed on stdout)")
+      ->check(CLI::Range(0, 65535))
+      ->capture_default_str();
+  serve->add_option("--db", serve_db, "Run store and job queue (SQLite)")->capture_default_str();
+  serve->add_option("--workers", serve_opt.workers, "Jobs run at once (0: queue only)")
+      ->check(CLI::Range(0, 64))
+      ->capture_default_str();
+  serve->add_option("--threads-per-job", serve_opt.threads_per_job, "OpenMP threads per job (0: cores / workers)")
+      ->check(CLI::Range(0, 1024));
+  serve->add_option("--token-file", token_file, "File holding the bearer token that writes need (else env RUNOUT_TOKEN)");
+  serve->add_option("--max-body", serve_opt.max_body, "Largest request body in bytes")
+      ->check(CLI::Range(static_cast<size_t>(1024), static_cast<size_t>(1) << 30))
+      ->capture_default_str();
+  serve->add_option("--particle-budget", serve_opt.particle_budget, "Most particles a job may have")
+      ->check(CLI::Range(static_cast<int64_t>(100), static_cast<int64_t>(200'000'000)))
+      ->capture_default_str();
+  serve->add_option("--runs", serve_runs, "Job outputs go to RUNS/service/job-<id>")->capture_default_str();
+  serve->add_option("--scene-dir", scene_dir, "Relative file names in submitted scenes (terrain.dem) resolve here")
+      ->capture_default_str();
+  serve->add_flag("--verbose,-v", verbose, "Log every request (method, path, status, time)");
+
   CLI11_PARSE(app, argc, argv);
+  if (serve->parsed()) {
+    serve_opt.db = serve_db;
+    serve_opt.runs_dir = serve_runs;
+    serve_opt.scene_dir = scene_dir;
+    return cmd_serve(serve_opt, token_file, verbose);
+  }
   if (run->parsed()) return cmd_run(scene_path, out_dir, snapshots, threads, quiet, no_db ? "" : db_file);
   if (sweep->parsed()) return cmd_sweep(sweep_path, fidelity, dp, jobs, threads, db_file, sweep_out, !no_compare);
   if (compare->parsed()) return cmd_compare(db_file, compare_sweep, baseline, compare_ids, filter, all_rows);

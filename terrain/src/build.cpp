@@ -295,7 +295,12 @@ TerrainModel build_terrain(const TerrainSpec& spec, double dp, long max_particle
   for (int j = 0; j < ny; ++j) {
     for (int i = 0; i < nx; ++i) {
       int a, b;
-      const double x = m.original.cx(i), y = m.original.cy(j);
+      double x = m.original.cx(i), y = m.original.cy(j);
+      // The dp grid rounds the corridor's box up to whole dp, so its last column or row may stick out of the
+      // DEM by less than dp: that strip takes the edge cell's ground (without it the flow met a gap with no
+      // ground at the DEM's edge instead of the outflow face).
+      x = std::clamp(x, bx0 + 1e-9 * dem.dx, bx1 - 1e-9 * dem.dx);
+      y = std::clamp(y, by1 + 1e-9 * dem.dy, by0 - 1e-9 * dem.dy);
       if (!dem.cell_of(x, y, a, b) || !corridor[static_cast<size_t>(b) * dem.nx + a]) continue;
       double z = dem.sample(x, y);
       if (std::isnan(z)) z = dem.at(a, b);  // next to nodata: the cell's own value

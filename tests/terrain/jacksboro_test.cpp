@@ -95,9 +95,10 @@ class Jacksboro : public ::testing::Test {
   }
 };
 
-TEST_F(Jacksboro, DraftRunHasNoLeaksAndItsRastersMatchItsMetrics) {
+TEST_F(Jacksboro, DraftRunComesToRestWithoutLeaksAndItsRastersMatchItsMetrics) {
   const Outcome o = run_at(1.0, "draft");
   expect_no_leaks(o);
+  expect_at_rest(o);
   const json& t = o.metrics["terrain"];
   EXPECT_EQ(t["crs"], "WGS 84 / UTM zone 16N");
   EXPECT_LT(t["modelled_fraction"].get<double>(), 0.01);  // a corridor, not the 1000 km2 DEM
@@ -120,31 +121,23 @@ TEST_F(Jacksboro, DraftRunHasNoLeaksAndItsRastersMatchItsMetrics) {
   for (float v : depth.values) wet += v >= threshold;
   EXPECT_DOUBLE_EQ(wet * depth.cell_area(), t["inundation"]["inundated_area_m2"].get<double>());
   EXPECT_GT(wet, 8u);  // more than the 400 m2 release footprint
-  // The deposit raster holds the flow's volume (m/rho per particle).
+  // The deposit raster holds the flow's volume (m/rho0 per particle).
   const terrain::Grid deposit = terrain::load_dem((o.dir / "rasters/deposit_depth.tif").string());
   double volume = 0;
   for (float v : deposit.values) volume += std::isnan(v) ? 0.0 : v * deposit.cell_area();
-  // 2 %: the cohesionless material carries no tension (pressure floored at 0), so a spreading sheet's SPH
-  // density falls below rho0 and m/rho grows; measured 808.5 m3 for 800 m3 (+1.06 %, 2026-11-28).
-  EXPECT_NEAR(volume, t["release_volume_m3"].get<double>(), 0.02 * t["release_volume_m3"].get<double>());
+  // The raster bins each particle's bulk volume m/rho0, so it holds the release exactly up to float32
+  // depths (0.1 %). (With m/rho it read +1.06 %: a spreading cohesionless sheet's SPH density falls below rho0.)
+  EXPECT_NEAR(volume, t["release_volume_m3"].get<double>(), 1e-3 * t["release_volume_m3"].get<double>());
   EXPECT_TRUE(fs::exists(o.dir / "rasters/max_depth.png"));
   fs::remove_all(o.dir);
 }
 
-// Known to fail (docs/validation.md, "Terrain"): at dp = 0.5 m, with extrapolated boundary pressure, one
-// particle of the stalled flow sinks through the first boundary layer at t = 8.1 s (extrapolated pressure
-// has no repulsion for a low-pressure particle at the wall); with DBC the flow runs off the corridor.
+// Not run by CI: at dp = 0.5 m the run has 8 times the particles and twice the steps of the draft run (about
+// an hour on two cores). Not yet run with the present engine (basal friction and wall contact of 2026-11-28);
+// before them one particle sank through the first boundary layer at 8.1 s. Run it with
+// `build/tests/terrain_jacksboro_test --gtest_also_run_disabled_tests --gtest_filter=*Standard*`.
 TEST_F(Jacksboro, DISABLED_StandardRunHasNoLeaks) {
   const Outcome o = run_at(0.5, "standard");
-  expect_no_leaks(o);
-  fs::remove_all(o.dir);
-}
-
-// Known to fail (docs/validation.md, "Terrain"): on this 30 degree slope the friction-HBP flow with
-// phi = 20 deg stalls on the slope with extrapolated boundary pressure and runs on almost without friction
-// with DBC: the basal friction of the engine's wall treatment is not right in 3D yet (issue 2).
-TEST_F(Jacksboro, DISABLED_DraftRunComesToRestOnTheValleyFloor) {
-  const Outcome o = run_at(1.0, "draft-rest");
   expect_no_leaks(o);
   expect_at_rest(o);
   fs::remove_all(o.dir);

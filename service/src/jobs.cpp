@@ -1,0 +1,456 @@
+// The persistent job queue (docs/service.md, "Queue").
+#include "jobs.hpp"
+
+#include <sqlite3.h>
+
+#include <mutex>
+#include <stdexcept>
+
+namespace runout::service {
+
+namespace {
+
+constexpr const char* kNow = "strftime('%Y-%m-%dT%H:%M:%fZ','now')";
+
+// One connection: WAL, synchronous FULL, busy_timeout 10 s, foreign keys, like RunStore.
+struct Conn {
+  std::filesystem::path path;
+  sqlite3* db = nullptr;
+  std::mutex mutex;
+
+  [[noreturn]] void fail(const std::string& what) const {
+    throw std::runtime_error("job queue " + path.string() + ": " + what + ": " + sqlite3_errmsg(db));
+  }
+  void exec(const char* sql) {
+    char* err = nullptr;
+    if (sqlite3_exec(db, sql, nullptr, nullptr, &err) != SQLITE_OK) {
+      std::string msg = err ? err : sqlite3_errmsg(db);
+      sqlite3_free(err);
+      throw std::runtime_error("job queue " + path.string() + ": " + sql + ": " + msg);
+    }
+  }
+  void open(const std::filesystem::path& p, bool readonly) {
+    path = p;
+    const int flags = (readonly ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE) | SQLITE_OPEN_FULLMUTEX;
+    if (sqlite3_open_v2(p.c_str(), &db, flags, nullptr) != SQLITE_OK) {
+      std::string msg = db ? sqlite3_errmsg(db) : "out of memory";
+      sqlite3_close(db);
+      db = nullptr;
+      throw std::runtime_error("job queue " + p.string() + ": opening: " + msg);
+    }
+    sqlite3_extended_result_codes(db, 1);
+    sqlite3_busy_timeout(db, 10000);
+    if (!readonly) {
+      exec("PRAGMA journal_mode = WAL");
+      exec("PRAGMA synchronous = FULL");
+    }
+    exec("PRAGMA foreign_keys = ON");
+  }
+  ~Conn() {
+    if (db) sqlite3_close_v2(db);
+  }
+};
+
+class Stmt {
+ public:
+  Stmt(const Conn& c, const std::string& sql) : c_(c) {
+    if (sqlite3_prepare_v2(c.db, sql.c_str(), static_cast<int>(sql.size()), &s_, nullptr) != SQLITE_OK)
+      c_.fail("preparing \"" + sql + "\"");
+  }
+  ~Stmt() { sqlite3_finalize(s_); }
+  Stmt(const Stmt&) = delete;
+  Stmt& operator=(const Stmt&) = delete;
+  Stmt& bind(int i, const std::string& v) {
+    check(sqlite3_bind_text64(s_, i, v.data(), v.size(), SQLITE_TRANSIENT, SQLITE_UTF8));
+    return *this;
+  }
+  Stmt& bind(int i, int64_t v) {
+    check(sqlite3_bind_int64(s_, i, v));
+    return *this;
+  }
+  Stmt& bind(int i, double v) {
+    check(sqlite3_bind_double(s_, i, v));
+    return *this;
+  }
+  template <class T>
+  Stmt& bind(int i, const std::optional<T>& v) {
+    if (v) return bind(i, *v);
+    check(sqlite3_bind_null(s_, i));
+    return *this;
+  }
+  bool step() {
+    const int rc = sqlite3_step(s_);
+    if (rc == SQLITE_ROW) return true;
+    if (rc == SQLITE_DONE) return false;
+    c_.fail("executing \"" + std::string(sqlite3_sql(s_)) + "\"");
+  }
+  void reset() {
+    sqlite3_reset(s_);
+    sqlite3_clear_bindings(s_);
+  }
+  bool null(int col) const { return sqlite3_column_type(s_, col) == SQLITE_NULL; }
+  std::string text(int col) const {
+    const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(s_, col));
+    return p ? std::string(p, static_cast<size_t>(sqlite3_column_bytes(s_, col))) : std::string();
+  }
+  int64_t int64(int col) const { return sqlite3_column_int64(s_, col); }
+  double real(int col) const { return sqlite3_column_double(s_, col); }
+  std::optional<int64_t> opt_int(int col) const { return null(col) ? std::nullopt : std::optional<int64_t>(int64(col)); }
+  std::optional<double> opt_real(int col) const { return null(col) ? std::nullopt : std::optional<double>(real(col)); }
+  std::optional<std::string> opt_text(int col) const {
+    return null(col) ? std::nullopt : std::optional<std::string>(text(col));
+  }
+
+ private:
+  void check(int rc) {
+    if (rc != SQLITE_OK) c_.fail("binding");
+  }
+  const Conn& c_;
+  sqlite3_stmt* s_ = nullptr;
+};
+
+class Transaction {
+ public:
+  explicit Transaction(Conn& c) : c_(c) { c_.exec("BEGIN IMMEDIATE"); }
+  ~Transaction() {
+    if (!done_) sqlite3_exec(c_.db, "ROLLBACK", nullptr, nullptr, nullptr);
+  }
+  void commit() {
+    c_.exec("COMMIT");
+    done_ = true;
+  }
+
+ private:
+  Conn& c_;
+  bool done_ = false;
+};
+
+// Columns of a job; `full` includes the scene JSON.
+std::string job_columns(bool full) {
+  return std::string("id, status, scene_name, ") + (full ? "scene_json" : "''") +
+         ", scene_id, fidelity, dp, sweep_id, sweep, variant, idempotency_key, particles, sim_time, duration, "
+         "steps, wall_seconds, eta_seconds, attempts, cancel_requested, run_id, reused, out_dir, error, created_at, "
+         "updated_at, started_at, finished_at";
+}
+
+Job read_job(const Stmt& s) {
+  Job j;
+  j.id = s.int64(0);
+  j.status = s.text(1);
+  j.scene_name = s.text(2);
+  j.scene_json = s.text(3);
+  j.scene_id = s.opt_int(4);
+  j.fidelity = s.text(5);
+  j.dp = s.opt_real(6);
+  j.sweep_id = s.opt_int(7);
+  j.sweep = s.text(8);
+  j.variant = s.text(9);
+  j.idempotency_key = s.opt_text(10);
+  j.particles = s.int64(11);
+  j.sim_time = s.real(12);
+  j.duration = s.real(13);
+  j.steps = s.int64(14);
+  j.wall_seconds = s.real(15);
+  j.eta_seconds = s.opt_real(16);
+  j.attempts = s.int64(17);
+  j.cancel_requested = s.int64(18) != 0;
+  j.run_id = s.opt_int(19);
+  j.reused = s.int64(20) != 0;
+  j.out_dir = s.text(21);
+  j.error = s.text(22);
+  j.created_at = s.text(23);
+  j.updated_at = s.text(24);
+  j.started_at = s.opt_text(25);
+  j.finished_at = s.opt_text(26);
+  return j;
+}
+
+const char* kSweepColumns = "id, name, scene_id, fidelity, idempotency_key, created_at";
+SweepRow read_sweep(const Stmt& s) {
+  return {s.int64(0), s.text(1), s.opt_int(2), s.text(3), s.opt_text(4), s.text(5)};
+}
+
+std::optional<Job> get_job(const Conn& c, int64_t id, bool full = true) {
+  Stmt s(c, "SELECT " + job_columns(full) + " FROM jobs WHERE id = ?");
+  s.bind(1, id);
+  if (!s.step()) return std::nullopt;
+  return read_job(s);
+}
+
+int64_t insert_job(Conn& c, const JobSpec& spec, std::optional<int64_t> sweep_id, const std::optional<std::string>& key) {
+  Stmt ins(c, std::string("INSERT INTO jobs(status, scene_name, scene_json, scene_id, fidelity, dp, sweep_id, sweep, "
+                          "variant, idempotency_key, particles, duration, created_at, updated_at) "
+                          "VALUES ('queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ") +
+                  kNow + ", " + kNow + ")");
+  ins.bind(1, spec.scene_name).bind(2, spec.scene_json).bind(3, spec.scene_id).bind(4, spec.fidelity).bind(5, spec.dp);
+  ins.bind(6, sweep_id).bind(7, spec.sweep).bind(8, spec.variant).bind(9, key).bind(10, spec.particles);
+  ins.bind(11, spec.duration);
+  ins.step();
+  return sqlite3_last_insert_rowid(c.db);
+}
+
+}  // namespace
+
+struct JobQueue::Impl {
+  Conn writer;  // every write, in BEGIN IMMEDIATE transactions
+  Conn reader;  // reads (WAL: never blocked by the writer)
+};
+
+JobQueue::JobQueue(const std::filesystem::path& db_file) : impl_(std::make_unique<Impl>()) {
+  impl_->writer.open(db_file, false);
+  impl_->reader.open(db_file, false);
+  Stmt has(impl_->reader, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'jobs'");
+  if (!has.step())
+    throw std::runtime_error("job queue " + db_file.string() + ": no jobs table (open the file with RunStore first)");
+}
+
+JobQueue::~JobQueue() = default;
+
+std::pair<Job, bool> JobQueue::submit(const JobSpec& spec, const std::optional<std::string>& key) {
+  Conn& c = impl_->writer;
+  std::lock_guard lock(c.mutex);
+  Transaction tx(c);
+  if (key) {
+    Stmt f(c, "SELECT id FROM jobs WHERE idempotency_key = ?");
+    f.bind(1, *key);
+    if (f.step()) {
+      const int64_t id = f.int64(0);
+      tx.commit();
+      return {*get_job(c, id), false};
+    }
+  }
+  const int64_t id = insert_job(c, spec, std::nullopt, key);
+  auto job = get_job(c, id);
+  tx.commit();
+  return {*job, true};
+}
+
+std::pair<SweepRow, bool> JobQueue::submit_sweep(const std::string& name, std::optional<int64_t> scene_id,
+                                                 const std::string& fidelity, const std::vector<JobSpec>& jobs,
+                                                 const std::optional<std::string>& key) {
+  Conn& c = impl_->writer;
+  std::lock_guard lock(c.mutex);
+  Transaction tx(c);
+  if (key) {
+    Stmt f(c, std::string("SELECT ") + kSweepColumns + " FROM service_sweeps WHERE idempotency_key = ?");
+    f.bind(1, *key);
+    if (f.step()) {
+      SweepRow row = read_sweep(f);
+      tx.commit();
+      return {row, false};
+    }
+  }
+  Stmt ins(c, std::string("INSERT INTO service_sweeps(name, scene_id, fidelity, idempotency_key, created_at) "
+                          "VALUES (?, ?, ?, ?, ") + kNow + ")");
+  ins.bind(1, name).bind(2, scene_id).bind(3, fidelity).bind(4, key);
+  ins.step();
+  const int64_t sweep_id = sqlite3_last_insert_rowid(c.db);
+  for (const auto& j : jobs) insert_job(c, j, sweep_id, std::nullopt);
+  Stmt s(c, std::string("SELECT ") + kSweepColumns + " FROM service_sweeps WHERE id = ?");
+  s.bind(1, sweep_id);
+  s.step();
+  SweepRow row = read_sweep(s);
+  tx.commit();
+  return {row, true};
+}
+
+std::optional<Job> JobQueue::get(int64_t id) const {
+  std::lock_guard lock(impl_->reader.mutex);
+  return get_job(impl_->reader, id);
+}
+
+namespace {
+std::string where_clause(const std::optional<std::string>& status, const std::optional<int64_t>& sweep_id) {
+  std::string w;
+  if (status) w += " WHERE status = ?1";
+  if (sweep_id) w += std::string(w.empty() ? " WHERE" : " AND") + " sweep_id = ?2";
+  return w;
+}
+}  // namespace
+
+std::vector<Job> JobQueue::list(const std::optional<std::string>& status, const std::optional<int64_t>& sweep_id,
+                                int64_t limit, int64_t offset) const {
+  std::lock_guard lock(impl_->reader.mutex);
+  Stmt s(impl_->reader, "SELECT " + job_columns(false) + " FROM jobs" + where_clause(status, sweep_id) +
+                            " ORDER BY id LIMIT ?3 OFFSET ?4");
+  if (status) s.bind(1, *status);
+  if (sweep_id) s.bind(2, *sweep_id);
+  s.bind(3, limit).bind(4, offset);
+  std::vector<Job> out;
+  while (s.step()) out.push_back(read_job(s));
+  return out;
+}
+
+int64_t JobQueue::count(const std::optional<std::string>& status, const std::optional<int64_t>& sweep_id) const {
+  std::lock_guard lock(impl_->reader.mutex);
+  Stmt s(impl_->reader, "SELECT COUNT(*) FROM jobs" + where_clause(status, sweep_id));
+  if (status) s.bind(1, *status);
+  if (sweep_id) s.bind(2, *sweep_id);
+  s.step();
+  return s.int64(0);
+}
+
+std::map<std::string, int64_t> JobQueue::counts_by_status() const {
+  std::lock_guard lock(impl_->reader.mutex);
+  std::map<std::string, int64_t> out{{"queued", 0}, {"running", 0}, {"done", 0}, {"failed", 0}, {"cancelled", 0}};
+  Stmt s(impl_->reader, "SELECT status, COUNT(*) FROM jobs GROUP BY status");
+  while (s.step()) out[s.text(0)] = s.int64(1);
+  return out;
+}
+
+std::optional<SweepRow> JobQueue::get_sweep(int64_t id) const {
+  std::lock_guard lock(impl_->reader.mutex);
+  Stmt s(impl_->reader, std::string("SELECT ") + kSweepColumns + " FROM service_sweeps WHERE id = ?");
+  s.bind(1, id);
+  if (!s.step()) return std::nullopt;
+  return read_sweep(s);
+}
+
+std::optional<std::string> JobQueue::out_dir_of_run(int64_t run_id) const {
+  std::lock_guard lock(impl_->reader.mutex);
+  Stmt s(impl_->reader, "SELECT out_dir FROM jobs WHERE run_id = ? AND reused = 0 AND out_dir <> '' ORDER BY id LIMIT 1");
+  s.bind(1, run_id);
+  if (!s.step()) return std::nullopt;
+  return s.text(0);
+}
+
+std::pair<SceneRow, bool> JobQueue::put_scene(const std::string& name, const std::string& content_hash,
+                                              const std::string& scene_json, const std::string& structures_json) {
+  Conn& c = impl_->writer;
+  std::lock_guard lock(c.mutex);
+  Transaction tx(c);
+  Stmt ins(c, std::string("INSERT INTO service_scenes(name, content_hash, scene_json, structures, created_at) "
+                          "VALUES (?, ?, ?, ?, ") + kNow + ") ON CONFLICT(content_hash) DO NOTHING");
+  ins.bind(1, name).bind(2, content_hash).bind(3, scene_json).bind(4, structures_json);
+  ins.step();
+  const bool created = sqlite3_changes(c.db) > 0;
+  Stmt s(c, "SELECT id, name, content_hash, scene_json, structures, created_at FROM service_scenes WHERE content_hash = ?");
+  s.bind(1, content_hash);
+  if (!s.step()) c.fail("scene vanished");
+  SceneRow row{s.int64(0), s.text(1), s.text(2), s.text(3), s.text(4), s.text(5)};
+  tx.commit();
+  return {row, created};
+}
+
+std::optional<SceneRow> JobQueue::get_scene(int64_t id) const {
+  std::lock_guard lock(impl_->reader.mutex);
+  Stmt s(impl_->reader, "SELECT id, name, content_hash, scene_json, structures, created_at FROM service_scenes WHERE id = ?");
+  s.bind(1, id);
+  if (!s.step()) return std::nullopt;
+  return SceneRow{s.int64(0), s.text(1), s.text(2), s.text(3), s.text(4), s.text(5)};
+}
+
+std::vector<SceneRow> JobQueue::list_scenes() const {
+  std::lock_guard lock(impl_->reader.mutex);
+  Stmt s(impl_->reader, "SELECT id, name, content_hash, '', structures, created_at FROM service_scenes ORDER BY id");
+  std::vector<SceneRow> out;
+  while (s.step()) out.push_back({s.int64(0), s.text(1), s.text(2), s.text(3), s.text(4), s.text(5)});
+  return out;
+}
+
+std::optional<Job> JobQueue::claim(const std::string& out_root) {
+  Conn& c = impl_->writer;
+  std::lock_guard lock(c.mutex);
+  Transaction tx(c);
+  Stmt s(c, std::string("UPDATE jobs SET status = 'running', attempts = attempts + 1, sim_time = 0, steps = 0, "
+                        "wall_seconds = 0, eta_seconds = NULL, error = '', out_dir = ?1 || '/job-' || id, "
+                        "started_at = ") + kNow + ", updated_at = " + kNow +
+                " WHERE id = (SELECT id FROM jobs WHERE status = 'queued' ORDER BY id LIMIT 1) AND status = 'queued' "
+                "RETURNING " + job_columns(true));
+  s.bind(1, out_root);
+  std::optional<Job> job;
+  if (s.step()) job = read_job(s);
+  while (s.step()) {
+  }
+  s.reset();
+  tx.commit();
+  return job;
+}
+
+void JobQueue::progress(int64_t id, double sim_time, double duration, int64_t steps, double wall_seconds,
+                        std::optional<double> eta) {
+  Conn& c = impl_->writer;
+  std::lock_guard lock(c.mutex);
+  Transaction tx(c);
+  Stmt s(c, std::string("UPDATE jobs SET sim_time = ?, duration = ?, steps = ?, wall_seconds = ?, eta_seconds = ?, "
+                        "updated_at = ") + kNow + " WHERE id = ? AND status = 'running'");
+  s.bind(1, sim_time).bind(2, duration).bind(3, steps).bind(4, wall_seconds).bind(5, eta).bind(6, id);
+  s.step();
+  tx.commit();
+}
+
+bool JobQueue::finish(int64_t id, const std::string& status, std::optional<int64_t> run_id, bool reused,
+                      const std::string& error) {
+  Conn& c = impl_->writer;
+  std::lock_guard lock(c.mutex);
+  Transaction tx(c);
+  Stmt s(c, std::string("UPDATE jobs SET status = ?, run_id = ?, reused = ?, error = ?, eta_seconds = CASE WHEN ? = "
+                        "'done' THEN 0 ELSE NULL END, finished_at = ") + kNow + ", updated_at = " + kNow +
+                " WHERE id = ? AND status = 'running'");
+  s.bind(1, status).bind(2, run_id).bind(3, static_cast<int64_t>(reused)).bind(4, error).bind(5, status).bind(6, id);
+  s.step();
+  const bool changed = sqlite3_changes(c.db) > 0;
+  tx.commit();
+  return changed;
+}
+
+bool JobQueue::requeue(int64_t id) {
+  Conn& c = impl_->writer;
+  std::lock_guard lock(c.mutex);
+  Transaction tx(c);
+  Stmt s(c, std::string("UPDATE jobs SET status = 'queued', eta_seconds = NULL, updated_at = ") + kNow +
+                " WHERE id = ? AND status = 'running'");
+  s.bind(1, id);
+  s.step();
+  const bool changed = sqlite3_changes(c.db) > 0;
+  tx.commit();
+  return changed;
+}
+
+std::optional<std::pair<JobQueue::CancelOutcome, Job>> JobQueue::cancel(int64_t id) {
+  Conn& c = impl_->writer;
+  std::lock_guard lock(c.mutex);
+  Transaction tx(c);
+  auto job = get_job(c, id, false);
+  if (!job) return std::nullopt;
+  CancelOutcome outcome;
+  if (job->status == "queued") {
+    Stmt s(c, std::string("UPDATE jobs SET status = 'cancelled', cancel_requested = 1, finished_at = ") + kNow +
+                  ", updated_at = " + kNow + " WHERE id = ? AND status = 'queued'");
+    s.bind(1, id);
+    s.step();
+    outcome = CancelOutcome::cancelled;
+  } else if (job->status == "running") {
+    Stmt s(c, std::string("UPDATE jobs SET cancel_requested = 1, updated_at = ") + kNow +
+                  " WHERE id = ? AND status = 'running'");
+    s.bind(1, id);
+    s.step();
+    outcome = CancelOutcome::requested;
+  } else if (job->status == "cancelled") {
+    outcome = CancelOutcome::already_cancelled;
+  } else {
+    outcome = CancelOutcome::finished;
+  }
+  job = get_job(c, id, false);
+  tx.commit();
+  return std::make_pair(outcome, *job);
+}
+
+int JobQueue::recover() {
+  Conn& c = impl_->writer;
+  std::lock_guard lock(c.mutex);
+  Transaction tx(c);
+  {
+    Stmt s(c, std::string("UPDATE jobs SET status = 'cancelled', finished_at = ") + kNow + ", updated_at = " + kNow +
+                  " WHERE status = 'running' AND cancel_requested = 1");
+    s.step();
+  }
+  Stmt s(c, std::string("UPDATE jobs SET status = 'queued', eta_seconds = NULL, updated_at = ") + kNow +
+                " WHERE status = 'running'");
+  s.step();
+  const int n = sqlite3_changes(c.db);
+  tx.commit();
+  return n;
+}
+
+}  // namespace runout::service

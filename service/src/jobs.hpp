@@ -1,0 +1,122 @@
+#pragma once
+// The service's persistent job queue, in the same SQLite file as the run store (tables of schema version 2,
+// scenarios/src/store.cpp; docs/service.md). States: queued -> running -> done | failed | cancelled.
+// Every transition is one transaction (BEGIN IMMEDIATE, WAL, synchronous FULL); claiming a job is a single
+// UPDATE ... WHERE status = 'queued' ... RETURNING, so two workers never get the same job.
+// SQLite stays out of this header.
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace runout::service {
+
+// What a new job is: the resolved scene (JSON text) and how it was made.
+struct JobSpec {
+  std::string scene_name;
+  std::string scene_json;            // resolved: layout and fidelity applied
+  std::optional<int64_t> scene_id;   // the stored base scene, when it came from one
+  std::string fidelity = "standard"; // draft | standard | fine | custom
+  std::optional<double> dp;          // custom dp
+  std::string sweep, variant;        // sweep name (runs.sweep in the run store) and variant name
+  int64_t particles = 0;             // particle count of the resolved scene (fluid + boundary)
+  double duration = 0;               // simulated seconds
+};
+
+struct Job {
+  int64_t id = 0;
+  std::string status;  // queued | running | done | failed | cancelled
+  std::string scene_name, scene_json;  // scene_json empty in lists
+  std::optional<int64_t> scene_id;
+  std::string fidelity;
+  std::optional<double> dp;
+  std::optional<int64_t> sweep_id;
+  std::string sweep, variant;
+  std::optional<std::string> idempotency_key;
+  int64_t particles = 0;
+  double sim_time = 0, duration = 0;
+  int64_t steps = 0;
+  double wall_seconds = 0;
+  std::optional<double> eta_seconds;
+  int64_t attempts = 0;
+  bool cancel_requested = false;
+  std::optional<int64_t> run_id;
+  bool reused = false;
+  std::string out_dir, error;
+  std::string created_at, updated_at;
+  std::optional<std::string> started_at, finished_at;
+};
+
+struct SceneRow {
+  int64_t id = 0;
+  std::string name, content_hash, scene_json, structures_json, created_at;
+};
+
+struct SweepRow {
+  int64_t id = 0;
+  std::string name;
+  std::optional<int64_t> scene_id;
+  std::string fidelity;
+  std::optional<std::string> idempotency_key;
+  std::string created_at;
+};
+
+class JobQueue {
+ public:
+  // Opens its own connections to a file the run store has already migrated (RunStore's constructor).
+  explicit JobQueue(const std::filesystem::path& db_file);
+  ~JobQueue();
+  JobQueue(const JobQueue&) = delete;
+  JobQueue& operator=(const JobQueue&) = delete;
+
+  // A new queued job, or, when `key` names an existing job, that job (second = false) and nothing written.
+  std::pair<Job, bool> submit(const JobSpec& spec, const std::optional<std::string>& key);
+  // A sweep and its jobs in one transaction; with an existing key, the original sweep (second = false).
+  std::pair<SweepRow, bool> submit_sweep(const std::string& name, std::optional<int64_t> scene_id,
+                                         const std::string& fidelity, const std::vector<JobSpec>& jobs,
+                                         const std::optional<std::string>& key);
+
+  std::optional<Job> get(int64_t id) const;
+  // Without scene_json, by id; status and sweep filter when given.
+  std::vector<Job> list(const std::optional<std::string>& status, const std::optional<int64_t>& sweep_id,
+                        int64_t limit, int64_t offset) const;
+  int64_t count(const std::optional<std::string>& status, const std::optional<int64_t>& sweep_id) const;
+  std::map<std::string, int64_t> counts_by_status() const;
+  std::optional<SweepRow> get_sweep(int64_t id) const;
+  // The directory of a finished job that produced this run's outputs (for a job that reused a stored run).
+  std::optional<std::string> out_dir_of_run(int64_t run_id) const;
+
+  // Base scenes, deduplicated by content hash (second = false when already stored).
+  std::pair<SceneRow, bool> put_scene(const std::string& name, const std::string& content_hash,
+                                      const std::string& scene_json, const std::string& structures_json);
+  std::optional<SceneRow> get_scene(int64_t id) const;
+  std::vector<SceneRow> list_scenes() const;  // without scene_json
+
+  // Worker side. claim: the oldest queued job, now running (attempts + 1), or nothing.
+  std::optional<Job> claim(const std::string& out_root);
+  void progress(int64_t id, double sim_time, double duration, int64_t steps, double wall_seconds,
+                std::optional<double> eta);
+  // running -> done | failed | cancelled; false when the job was not running.
+  bool finish(int64_t id, const std::string& status, std::optional<int64_t> run_id, bool reused,
+              const std::string& error);
+  bool requeue(int64_t id);  // running -> queued (shutdown while running)
+
+  // DELETE /jobs/{id}: a queued job is cancelled at once; a running one is marked cancel_requested (its
+  // worker stops it); a finished one is left as it is. nullopt: no such job.
+  enum class CancelOutcome { cancelled, requested, already_cancelled, finished };
+  std::optional<std::pair<CancelOutcome, Job>> cancel(int64_t id);
+
+  // At start: jobs left running by a crash go back to the queue (or to cancelled if a cancel was asked).
+  // Returns how many were requeued.
+  int recover();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace runout::service

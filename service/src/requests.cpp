@@ -1,0 +1,430 @@
+// Request validation (requests.hpp). Every refusal names the field (a JSON path into the body) and the
+// accepted range; scene errors are the scene validator's own messages, prefixed with where the scene is.
+#include "requests.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <variant>
+
+#include <nlohmann/json.hpp>
+
+#include "runout/scenarios/scene.hpp"
+#include "runout/scenarios/sweep.hpp"
+#include "runout/terrain/raster.hpp"
+
+namespace runout::service {
+
+namespace {
+
+using json = nlohmann::json;
+
+constexpr size_t kMaxStructures = 64;
+constexpr size_t kMaxVariants = 1024;
+
+json parse_body(const std::string& body) {
+  if (body.find_first_not_of(" \t\r\n") == std::string::npos)
+    throw ApiError(400, "(body)", "empty body (accepted: a JSON object)");
+  try {
+    json j = json::parse(body);
+    if (!j.is_object()) throw ApiError(422, "(body)", "must be a JSON object");
+    return j;
+  } catch (const json::exception& e) {  // parse errors, and numbers beyond a double (1e400)
+    throw ApiError(400, "(body)", std::string("malformed JSON (accepted: a JSON object; NaN and Infinity are not "
+                                              "JSON): ") + e.what());
+  }
+}
+
+void refuse_unknown(const json& j, const std::string& path, const std::set<std::string>& allowed) {
+  for (auto it = j.begin(); it != j.end(); ++it)
+    if (!allowed.count(it.key())) {
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      throw ApiError(422, path.empty() ? it.key() : path + "." + it.key(), "unknown field (accepted: " + list + ")");
+    }
+}
+
+std::string at(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
+
+// Names used as labels (sweep, variant): 1 to 64 of [A-Za-z0-9_.+-], not "." or "..".
+bool label_ok(const std::string& s) {
+  const bool chars_ok = std::all_of(s.begin(), s.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '+' || c == '-';
+  });
+  return !s.empty() && s.size() <= 64 && chars_ok && s.find("..") == std::string::npos;
+}
+
+void check_label(const json& v, const std::string& field) {
+  const std::string accepted = "a string of 1 to 64 characters from A-Z a-z 0-9 _ . + -, without '..'";
+  if (!v.is_string()) throw ApiError(422, field, "must be " + accepted);
+  const std::string s = v.get<std::string>();
+  if (!label_ok(s)) throw ApiError(422, field, "'" + s.substr(0, 80) + "' is not accepted (accepted: " + accepted + ")");
+}
+
+// A scene's own name: 1 to 128 printable ASCII characters without / \ or "..".
+void check_scene_name(const json& scene, const std::string& field) {
+  if (!scene.contains("name")) return;
+  const std::string accepted = "a string of 1 to 128 printable ASCII characters without '/', '\\' or '..'";
+  const json& v = scene["name"];
+  if (!v.is_string()) throw ApiError(422, field, "must be " + accepted);
+  const std::string s = v.get<std::string>();
+  const bool chars_ok = std::all_of(s.begin(), s.end(), [](char c) { return c >= 0x20 && c < 0x7f && c != '/' && c != '\\'; });
+  if (s.empty() || s.size() > 128 || !chars_ok || s.find("..") != std::string::npos)
+    throw ApiError(422, field, "is not accepted (accepted: " + accepted + ")");
+}
+
+// The parts of a scene that resolve_variant reads, checked so that it cannot throw on a wrong type.
+void check_resolvable(const json& scene, const std::string& path) {
+  if (scene.contains("dp") && !scene["dp"].is_number())
+    throw ApiError(422, at(path, "dp"), "must be a number in [0.0001, 100]");
+  check_scene_name(scene, at(path, "name"));
+  for (const char* key : {"structures", "monitors"}) {
+    if (!scene.contains(key)) continue;
+    const json& a = scene[key];
+    if (!a.is_array()) throw ApiError(422, at(path, key), "must be an array of objects");
+    for (size_t k = 0; k < a.size(); ++k) {
+      const std::string f = at(path, key) + "[" + std::to_string(k) + "]";
+      if (!a[k].is_object()) throw ApiError(422, f, "must be an object");
+      for (const char* name : {"name", "type", "structure"})
+        if (a[k].contains(name) && !a[k][name].is_string()) throw ApiError(422, f + "." + name, "must be a string");
+    }
+  }
+  if (scene.contains("numerics") && !scene["numerics"].is_object())
+    throw ApiError(422, at(path, "numerics"), "must be an object of numerics fields");
+  if (scene.contains("fidelity")) {
+    const json& f = scene["fidelity"];
+    if (!f.is_object()) throw ApiError(422, at(path, "fidelity"), "must be an object with draft, standard, fine presets");
+    for (auto it = f.begin(); it != f.end(); ++it) {
+      if (!it.value().is_object())
+        throw ApiError(422, at(path, "fidelity") + "." + it.key(), "must be an object {dp, numerics}");
+      if (it.value().contains("numerics") && !it.value()["numerics"].is_object())
+        throw ApiError(422, at(path, "fidelity") + "." + it.key() + ".numerics", "must be an object of numerics fields");
+    }
+  }
+  // File names: relative, inside the service's scene directory.
+  if (scene.contains("terrain") && scene["terrain"].is_object() && scene["terrain"].contains("dem")) {
+    const json& dem = scene["terrain"]["dem"];
+    const std::string field = at(path, "terrain.dem");
+    if (!dem.is_string()) throw ApiError(422, field, "must be a file name relative to the service's scene directory");
+    const std::filesystem::path p = dem.get<std::string>();
+    bool dotdot = false;
+    for (const auto& part : p) dotdot = dotdot || part == "..";
+    if (p.empty() || p.is_absolute() || dotdot || p.string().find('\\') != std::string::npos)
+      throw ApiError(422, field,
+                     "must be a relative file name inside the service's scene directory (--scene-dir; no '..', not "
+                     "absolute)");
+  }
+}
+
+std::vector<std::string> candidates(const json& scene) {
+  std::vector<std::string> out;
+  if (scene.contains("structures") && scene["structures"].is_array())
+    for (const auto& s : scene["structures"])
+      if (s.is_object() && s.contains("name") && s["name"].is_string()) out.push_back(s["name"].get<std::string>());
+  return out;
+}
+
+std::string join(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
+  return s.empty() ? "(none)" : s;
+}
+
+// A layout: unique names of candidate structures of the base.
+std::vector<std::string> parse_structures(const json& v, const std::string& field, const std::vector<std::string>& cands) {
+  if (!v.is_array()) throw ApiError(422, field, "must be an array of structure names (candidates: " + join(cands) + ")");
+  if (v.size() > kMaxStructures)
+    throw ApiError(422, field, "has " + std::to_string(v.size()) + " entries (accepted: 0 to " +
+                                   std::to_string(kMaxStructures) + " structure names)");
+  std::vector<std::string> out;
+  for (size_t k = 0; k < v.size(); ++k) {
+    const std::string f = field + "[" + std::to_string(k) + "]";
+    if (!v[k].is_string()) throw ApiError(422, f, "must be a structure name (candidates: " + join(cands) + ")");
+    const std::string s = v[k].get<std::string>();
+    if (std::find(cands.begin(), cands.end(), s) == cands.end())
+      throw ApiError(422, f, "no candidate structure '" + s.substr(0, 80) + "' in the base scene (candidates: " + join(cands) + ")");
+    if (std::find(out.begin(), out.end(), s) != out.end())
+      throw ApiError(422, f, "structure '" + s + "' is listed twice (accepted: each candidate at most once)");
+    out.push_back(s);
+  }
+  return out;
+}
+
+Fidelity parse_fidelity(const json& body, const std::string& field) {
+  Fidelity f;
+  if (!body.contains(field)) return f;  // standard
+  const json& v = body[field];
+  const std::string accepted = "one of draft, standard, fine, or {\"dp\": a number in [0.0001, 100]}";
+  if (v.is_string()) {
+    const std::string name = v.get<std::string>();
+    if (std::find(fidelity_names().begin(), fidelity_names().end(), name) == fidelity_names().end())
+      throw ApiError(422, field, "unknown fidelity '" + name.substr(0, 80) + "' (accepted: " + accepted + ")");
+    f.name = name;
+    return f;
+  }
+  if (v.is_object()) {
+    refuse_unknown(v, field, {"dp"});
+    if (!v.contains("dp") || !v["dp"].is_number()) throw ApiError(422, field + ".dp", "must be a number in [0.0001, 100]");
+    const double dp = v["dp"].get<double>();
+    if (!std::isfinite(dp) || dp < 1e-4 || dp > 100)
+      throw ApiError(422, field + ".dp", "must be a number in [0.0001, 100]");
+    f.name = "custom";
+    f.dp = dp;
+    return f;
+  }
+  throw ApiError(422, field, "must be " + accepted);
+}
+
+std::optional<std::string> parse_key(const json& body) {
+  if (!body.contains("idempotency_key")) return std::nullopt;
+  if (!body["idempotency_key"].is_string())
+    throw ApiError(422, "idempotency_key", "must be a string of 1 to 200 printable ASCII characters");
+  std::string k = body["idempotency_key"].get<std::string>();
+  check_idempotency_key(k, "idempotency_key");
+  return k;
+}
+
+int64_t count_particles(const Scene& s) {
+  return std::visit([](const auto& setup) { return static_cast<int64_t>(setup.fluid.size() + setup.boundary.size()); },
+                    s.setup);
+}
+
+// Validates a resolved scene with the scene validator, under the particle budget. Returns the particle count.
+int64_t validate_resolved(const std::string& resolved, const std::string& path, const Limits& limits) {
+  json j = json::parse(resolved);
+  long own = 5'000'000;
+  bool injectable = !j.contains("limits");
+  if (j.contains("limits") && j["limits"].is_object()) {
+    const json& l = j["limits"];
+    if (!l.contains("max_particles")) {
+      injectable = true;
+    } else if (l["max_particles"].is_number_integer()) {
+      injectable = true;
+      own = l["max_particles"].get<long>();
+    }
+  }
+  const bool budget_binds = injectable && limits.particle_budget < own;
+  if (budget_binds) j["limits"]["max_particles"] = limits.particle_budget;  // the validator checks it before building
+  try {
+    const Scene s = parse_scene(j.dump(), limits.scene_dir);
+    return count_particles(s);
+  } catch (const SceneError& e) {
+    std::string msg = std::string(e.what()).substr(std::min(e.field.size() + 2, std::string(e.what()).size()));
+    const std::string lim = "limits.max_particles = " + std::to_string(limits.particle_budget);
+    if (budget_binds && msg.find(lim) != std::string::npos) {
+      msg.replace(msg.find(lim), lim.size(), "the particle budget");
+      throw ApiError(422, at(path, "dp"),
+                     msg + " (accepted: at most " + std::to_string(limits.particle_budget) +
+                         " particles per job, --particle-budget; choose a coarser fidelity)");
+    }
+    throw ApiError(422, at(path, e.field), msg);
+  } catch (const std::exception& e) {
+    throw ApiError(422, path.empty() ? "scene" : path, e.what());
+  }
+}
+
+// Resolves `base` with a layout at a fidelity (resolve_variant), checks it; the job spec.
+JobSpec make_job(const json& base, const std::string& path, const std::optional<std::vector<std::string>>& layout,
+                 const std::string& variant, const Fidelity& fidelity, const Limits& limits) {
+  const auto cands = candidates(base);
+  SweepVariant v;
+  v.name = variant;
+  v.structures = layout ? *layout : cands;
+  std::string resolved;
+  try {
+    json r = json::parse(resolve_variant(base.dump(), v, fidelity));
+    if (!layout) {  // a complete scene: its own name, as written
+      if (base.contains("name"))
+        r["name"] = base["name"];
+      else
+        r.erase("name");
+    }
+    resolved = r.dump();
+  } catch (const json::exception& e) {
+    throw ApiError(422, path, std::string("cannot apply the layout and fidelity: ") + e.what());
+  }
+  JobSpec spec;
+  spec.particles = validate_resolved(resolved, path, limits);
+  const json r = json::parse(resolved);
+  spec.scene_json = resolved;
+  spec.scene_name = r.value("name", std::string("scene"));
+  spec.fidelity = fidelity.dp ? "custom" : fidelity.name;
+  spec.dp = fidelity.dp;
+  spec.variant = layout ? variant : "";
+  spec.duration = r.contains("duration") && r["duration"].is_number() ? r["duration"].get<double>() : 0.0;
+  return spec;
+}
+
+// The base scene of a request: inline under `key`, or a stored one by scene_id.
+struct Base {
+  json scene;
+  std::string path;
+  std::optional<int64_t> scene_id;
+};
+
+Base base_of(const json& body, const char* inline_key, const JobQueue& queue) {
+  Base b;
+  const bool has_inline = body.contains(inline_key), has_id = body.contains("scene_id");
+  if (has_inline == has_id)
+    throw ApiError(422, inline_key, std::string("give exactly one of ") + inline_key + " (a scene object) or scene_id");
+  if (has_id) {
+    const json& v = body["scene_id"];
+    if (!v.is_number_integer() || v.get<int64_t>() < 1)
+      throw ApiError(422, "scene_id", "must be the id of a stored scene (an integer >= 1)");
+    const auto row = queue.get_scene(v.get<int64_t>());
+    if (!row) throw ApiError(404, "scene_id", "no stored scene with id " + std::to_string(v.get<int64_t>()));
+    b.scene = json::parse(row->scene_json);
+    b.scene_id = row->id;
+    b.path = "";  // fields of a stored scene are named as in the scene
+  } else {
+    b.scene = body[inline_key];
+    if (!b.scene.is_object()) throw ApiError(422, inline_key, "must be a scene (a JSON object)");
+    b.path = inline_key;
+  }
+  check_resolvable(b.scene, b.path);
+  return b;
+}
+
+}  // namespace
+
+void check_idempotency_key(const std::string& key, const std::string& field) {
+  const bool ok = !key.empty() && key.size() <= 200 &&
+                  std::all_of(key.begin(), key.end(), [](char c) { return c > 0x20 && c < 0x7f; });
+  if (!ok) throw ApiError(400, field, "must be 1 to 200 printable ASCII characters without spaces");
+}
+
+bool safe_file_name(const std::string& name) {
+  return !name.empty() && name.size() <= 64 && name.find("..") == std::string::npos &&
+         std::all_of(name.begin(), name.end(), [](char c) {
+           return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.';
+         });
+}
+
+NewScene parse_scene_request(const std::string& body, const Limits& limits) {
+  const json scene = parse_body(body);
+  check_resolvable(scene, "");
+  NewScene out;
+  out.structures = candidates(scene);
+  // Checked at draft fidelity without structures and with each candidate structure alone (candidates may
+  // exclude each other, e.g. overlap: a layout is checked when a job or sweep names it, at its fidelity).
+  Fidelity draft;
+  draft.name = "draft";
+  (void)make_job(scene, "", std::vector<std::string>{}, "none", draft, limits);
+  for (const auto& s : out.structures) {
+    try {
+      (void)make_job(scene, "", std::vector<std::string>{s}, "check", draft, limits);
+    } catch (const ApiError& e) {
+      throw ApiError(e.status, e.field, "with structure '" + s + "' alone: " + e.what());
+    }
+  }
+  out.scene_json = scene.dump();
+  out.content_hash = terrain::sha256_hex(out.scene_json);
+  out.name = scene.value("name", std::string("scene"));
+  return out;
+}
+
+JobSpec parse_job_request(const std::string& body, const Limits& limits, const JobQueue& queue,
+                          std::optional<std::string>& body_key) {
+  const json j = parse_body(body);
+  refuse_unknown(j, "", {"scene", "base", "scene_id", "structures", "variant", "fidelity", "idempotency_key"});
+  body_key = parse_key(j);
+  const bool plain = j.contains("scene");
+  if (plain && (j.contains("base") || j.contains("scene_id")))
+    throw ApiError(422, "scene", "give one of scene (a complete scene), base (a base scene) or scene_id");
+  if (plain && (j.contains("structures") || j.contains("variant")))
+    throw ApiError(422, j.contains("structures") ? "structures" : "variant",
+                   "a layout goes with base or scene_id, not with a complete scene");
+  const Fidelity fidelity = parse_fidelity(j, "fidelity");
+  if (plain) {
+    if (!j["scene"].is_object()) throw ApiError(422, "scene", "must be a scene (a JSON object)");
+    check_resolvable(j["scene"], "scene");
+    return make_job(j["scene"], "scene", std::nullopt, "", fidelity, limits);
+  }
+  const Base b = base_of(j, "base", queue);
+  const auto cands = candidates(b.scene);
+  std::optional<std::vector<std::string>> layout;
+  if (j.contains("structures")) layout = parse_structures(j["structures"], "structures", cands);
+  std::string variant;
+  if (j.contains("variant")) {
+    check_label(j["variant"], "variant");
+    variant = j["variant"].get<std::string>();
+  } else {
+    const auto& s = layout ? *layout : cands;
+    for (const auto& n : s) variant += (variant.empty() ? "" : "+") + n;
+    if (variant.empty()) variant = "none";
+    if (!label_ok(variant)) variant = "layout";
+  }
+  if (!layout) layout = cands;
+  JobSpec spec = make_job(b.scene, b.path, layout, variant, fidelity, limits);
+  spec.scene_id = b.scene_id;
+  return spec;
+}
+
+NewSweep parse_sweep_request(const std::string& body, const Limits& limits, const JobQueue& queue,
+                             std::optional<std::string>& body_key) {
+  const json j = parse_body(body);
+  refuse_unknown(j, "", {"name", "base", "scene_id", "fidelity", "variants", "factorial", "idempotency_key"});
+  body_key = parse_key(j);
+  NewSweep out;
+  out.name = "sweep";
+  if (j.contains("name")) {
+    check_label(j["name"], "name");
+    out.name = j["name"].get<std::string>();
+  }
+  const Fidelity fidelity = parse_fidelity(j, "fidelity");
+  out.fidelity = fidelity.dp ? "custom" : fidelity.name;
+  const Base b = base_of(j, "base", queue);
+  out.scene_id = b.scene_id;
+  const auto cands = candidates(b.scene);
+  if (j.contains("variants") == j.contains("factorial"))
+    throw ApiError(422, "variants", "give exactly one of variants (explicit layouts) or factorial (all subsets)");
+  std::vector<SweepVariant> variants;
+  if (j.contains("factorial")) {
+    const json& f = j["factorial"];
+    if (!f.is_object()) throw ApiError(422, "factorial", "must be an object {structures, prefix}");
+    refuse_unknown(f, "factorial", {"structures", "prefix"});
+    if (!f.contains("structures")) throw ApiError(422, "factorial.structures", "missing (required: 1 to 10 structure names)");
+    const auto names = parse_structures(f["structures"], "factorial.structures", cands);
+    if (names.empty() || names.size() > 10)
+      throw ApiError(422, "factorial.structures", "must name 1 to 10 structures (2^n jobs, at most 1024)");
+    std::string prefix = "G";
+    if (f.contains("prefix")) {
+      check_label(f["prefix"], "factorial.prefix");
+      prefix = f["prefix"].get<std::string>();
+      if (prefix.size() > 32) throw ApiError(422, "factorial.prefix", "must be 1 to 32 characters");
+    }
+    variants = factorial_variants(names, prefix);
+  } else {
+    const json& vs = j["variants"];
+    if (!vs.is_array() || vs.empty() || vs.size() > kMaxVariants)
+      throw ApiError(422, "variants", "must be an array of 1 to " + std::to_string(kMaxVariants) + " {name, structures}");
+    std::set<std::string> seen;
+    for (size_t k = 0; k < vs.size(); ++k) {
+      const std::string path = "variants[" + std::to_string(k) + "]";
+      if (!vs[k].is_object()) throw ApiError(422, path, "must be an object {name, structures}");
+      refuse_unknown(vs[k], path, {"name", "structures"});
+      if (!vs[k].contains("name")) throw ApiError(422, path + ".name", "missing (required: the variant's name)");
+      check_label(vs[k]["name"], path + ".name");
+      SweepVariant v;
+      v.name = vs[k]["name"].get<std::string>();
+      if (!seen.insert(v.name).second) throw ApiError(422, path + ".name", "duplicate variant name '" + v.name + "'");
+      if (vs[k].contains("structures")) v.structures = parse_structures(vs[k]["structures"], path + ".structures", cands);
+      variants.push_back(v);
+    }
+  }
+  for (size_t k = 0; k < variants.size(); ++k) {
+    const std::string path = b.path.empty() ? "variants[" + std::to_string(k) + "]" : b.path;
+    JobSpec spec;
+    try {
+      spec = make_job(b.scene, path, variants[k].structures, variants[k].name, fidelity, limits);
+    } catch (const ApiError& e) {
+      throw ApiError(e.status, e.field, "variant '" + variants[k].name + "': " + e.what());
+    }
+    spec.scene_id = b.scene_id;
+    spec.sweep = out.name;
+    out.jobs.push_back(std::move(spec));
+  }
+  return out;
+}
+
+}  // namespace runout::service

@@ -1,0 +1,53 @@
+#pragma once
+// Validation of the service's request bodies: a body becomes a resolved job (scene JSON at a fidelity with
+// its layout applied, particle count checked against the budget) or an ApiError naming the field and the
+// accepted range. The scene validator (parse_scene) does the scene itself; this adds the envelope, names,
+// file paths and the budget. nlohmann-json stays out of this header.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "jobs.hpp"
+
+namespace runout::service {
+
+struct ApiError : std::runtime_error {
+  int status;
+  std::string field;
+  ApiError(int status_code, std::string field_name, const std::string& message)
+      : std::runtime_error(message), status(status_code), field(std::move(field_name)) {}
+};
+
+struct Limits {
+  int64_t particle_budget = 2'000'000;  // particles (fluid + boundary) a job may have
+  std::filesystem::path scene_dir;       // where relative file names in scenes (terrain.dem) resolve
+};
+
+struct NewScene {
+  std::string name, scene_json, content_hash;
+  std::vector<std::string> structures;  // candidate structure names
+};
+
+struct NewSweep {
+  std::string name;
+  std::optional<int64_t> scene_id;
+  std::string fidelity;
+  std::vector<JobSpec> jobs;
+};
+
+// Bodies are JSON text; malformed JSON is a 400, everything else that is wrong a 422.
+NewScene parse_scene_request(const std::string& body, const Limits& limits);
+JobSpec parse_job_request(const std::string& body, const Limits& limits, const JobQueue& queue,
+                          std::optional<std::string>& body_key);
+NewSweep parse_sweep_request(const std::string& body, const Limits& limits, const JobQueue& queue,
+                             std::optional<std::string>& body_key);
+
+// An Idempotency-Key: 1 to 200 printable ASCII characters (400 otherwise).
+void check_idempotency_key(const std::string& key, const std::string& field);
+// Names of series and rasters in URLs: 1 to 64 of [A-Za-z0-9_.-], no "..".
+bool safe_file_name(const std::string& name);
+
+}  // namespace runout::service

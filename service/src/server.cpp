@@ -1,0 +1,697 @@
+// The HTTP service (server.hpp, docs/service.md).
+#include "server.hpp"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <thread>
+#include <vector>
+
+// The project's headers (Eigen) before httplib.h: httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen.
+#include "jobs.hpp"
+#include "requests.hpp"
+#include "runout/scenarios/store.hpp"
+#include "runout/scenarios/study.hpp"
+
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#ifndef RUNOUT_VERSION
+#define RUNOUT_VERSION "unknown"
+#endif
+
+namespace runout::service {
+
+namespace {
+
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+const std::string kPrefix = "/api/v1";
+const std::set<std::string> kStates = {"queued", "running", "done", "failed", "cancelled"};
+
+std::string dump(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
+
+void send_json(httplib::Response& res, int status, const json& j) {
+  res.status = status;
+  res.set_content(dump(j), "application/json");
+}
+
+void send_error(httplib::Response& res, int status, const std::string& field, const std::string& message) {
+  send_json(res, status, {{"error", {{"status", status}, {"field", field}, {"message", message}}}});
+}
+
+json job_json(const Job& j, bool full) {
+  auto or_null = [](const auto& o) -> json { return o ? json(*o) : json(nullptr); };
+  json progress = {{"simulated_time", j.sim_time},
+                   {"duration", j.duration},
+                   {"fraction", j.duration > 0 ? std::min(1.0, j.sim_time / j.duration) : 0.0},
+                   {"steps", j.steps},
+                   {"wall_seconds", j.wall_seconds},
+                   {"eta_seconds", or_null(j.eta_seconds)}};
+  const std::string self = kPrefix + "/jobs/" + std::to_string(j.id);
+  json out = {{"id", j.id},
+              {"status", j.status},
+              {"scene_name", j.scene_name},
+              {"scene_id", or_null(j.scene_id)},
+              {"fidelity", j.fidelity},
+              {"dp", or_null(j.dp)},
+              {"sweep_id", or_null(j.sweep_id)},
+              {"sweep", j.sweep},
+              {"variant", j.variant},
+              {"particles", j.particles},
+              {"progress", progress},
+              {"attempts", j.attempts},
+              {"cancel_requested", j.cancel_requested},
+              {"run_id", or_null(j.run_id)},
+              {"reused_stored_run", j.reused},
+              {"error", j.error},
+              {"created_at", j.created_at},
+              {"started_at", or_null(j.started_at)},
+              {"finished_at", or_null(j.finished_at)},
+              {"updated_at", j.updated_at},
+              {"links", {{"self", self}, {"metrics", self + "/metrics"}}}};
+  if (full) out["scene"] = json::parse(j.scene_json, nullptr, false);
+  return out;
+}
+
+json scene_json(const SceneRow& s, bool full) {
+  json out = {{"id", s.id},
+              {"name", s.name},
+              {"content_hash", s.content_hash},
+              {"structures", json::parse(s.structures_json, nullptr, false)},
+              {"created_at", s.created_at}};
+  if (full) out["scene"] = json::parse(s.scene_json, nullptr, false);
+  return out;
+}
+
+// A positive integer from a query parameter; 400 naming the parameter otherwise.
+int64_t int_param(const std::string& name, const std::string& v, int64_t lo, int64_t hi) {
+  const std::string range = "an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+  if (v.empty() || v.size() > 18 || !std::all_of(v.begin(), v.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    throw ApiError(400, name, "must be " + range);
+  const int64_t x = std::stoll(v);
+  if (x < lo || x > hi) throw ApiError(400, name, "must be " + range + " (got " + v + ")");
+  return x;
+}
+
+void only_params(const httplib::Request& req, const std::set<std::string>& allowed) {
+  for (const auto& [k, v] : req.params)
+    if (!allowed.count(k)) {
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      throw ApiError(400, k, "unknown query parameter (accepted: " + (list.empty() ? std::string("none") : list) + ")");
+    }
+}
+
+bool constant_time_equal(const std::string& a, const std::string& b) {
+  unsigned char diff = a.size() == b.size() ? 0 : 1;
+  for (size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ b[i % std::max<size_t>(b.size(), 1)]);
+  return diff == 0 && a.size() == b.size();
+}
+
+std::string read_file(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+using Handler = std::function<void(const httplib::Request&, httplib::Response&, const std::smatch&)>;
+struct Route {
+  std::string text;
+  std::regex pattern;
+  std::map<std::string, Handler> methods;  // GET, POST, DELETE
+  bool write(const std::string& m) const { return m == "POST" || m == "DELETE"; }
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------------
+
+struct Server::Impl {
+  ServeOptions opt;
+  Limits limits;
+  std::unique_ptr<RunStore> store;  // reads for the HTTP side
+  std::unique_ptr<JobQueue> queue;
+  httplib::Server http;
+  std::vector<Route> routes;
+  int lock_fd = -1;
+  int port = 0;
+
+  // Workers.
+  std::vector<std::thread> workers;
+  std::mutex mutex;
+  std::condition_variable wake;
+  bool stopping = false;
+  struct Running {
+    std::atomic<bool> stop{false};
+    std::atomic<bool> cancel{false};
+  };
+  std::map<int64_t, std::shared_ptr<Running>> running;  // job id -> its stop flags (under mutex)
+  std::atomic<int> busy{0};
+  int threads_per_job = 1;
+
+  void add(const std::string& pattern, const std::string& method, Handler h) {
+    const std::string full = "^" + kPrefix + pattern + "$";
+    auto it = std::find_if(routes.begin(), routes.end(), [&](const Route& r) { return r.text == full; });
+    if (it == routes.end()) {
+      routes.push_back(Route{full, std::regex(full), {}});
+      it = routes.end() - 1;
+    }
+    it->methods[method] = std::move(h);
+  }
+
+  static std::string allow_of(const Route& r) {
+    std::string allow;
+    for (const auto& [m, h] : r.methods) {
+      allow += (allow.empty() ? "" : ", ") + m;
+      if (m == "GET") allow += ", HEAD";
+    }
+    return allow + ", OPTIONS";
+  }
+
+  void authorize(const httplib::Request& req) const {
+    if (opt.token.empty()) return;
+    const std::string h = req.get_header_value("Authorization");
+    const std::string prefix = "Bearer ";
+    if (h.size() <= prefix.size() || h.compare(0, prefix.size(), prefix) != 0 ||
+        !constant_time_equal(h.substr(prefix.size()), opt.token))
+      throw ApiError(401, "Authorization", "a write needs the header 'Authorization: Bearer <token>' with the service's token");
+  }
+
+  void check_json_body(const httplib::Request& req) const {
+    const std::string ct = req.get_header_value("Content-Type");
+    if (!ct.empty() && ct.rfind("application/json", 0) != 0)
+      throw ApiError(415, "Content-Type", "must be application/json (got '" + ct.substr(0, 80) + "')");
+  }
+
+  std::optional<std::string> header_key(const httplib::Request& req) const {
+    if (!req.has_header("Idempotency-Key")) return std::nullopt;
+    std::string k = req.get_header_value("Idempotency-Key");
+    check_idempotency_key(k, "Idempotency-Key");
+    return k;
+  }
+
+  std::optional<std::string> pick_key(const std::optional<std::string>& header, const std::optional<std::string>& body) {
+    if (header && body && *header != *body)
+      throw ApiError(422, "idempotency_key", "differs from the Idempotency-Key header (accepted: the same key, or only one)");
+    return header ? header : body;
+  }
+
+  Job require_job(const std::string& id_text) const {
+    const int64_t id = std::stoll(id_text);
+    auto j = queue->get(id);
+    if (!j) throw ApiError(404, "id", "no job with id " + id_text);
+    return *j;
+  }
+
+  // The stored run of a job, for its results (409 while it has none).
+  int64_t run_of(const Job& j) const {
+    if (!j.run_id || (j.status != "done" && j.status != "failed"))
+      throw ApiError(409, "status", "job " + std::to_string(j.id) + " is " + j.status +
+                                        "; results exist once it is done (or failed after running)");
+    return *j.run_id;
+  }
+
+  fs::path out_dir_of(const Job& j) const {
+    if (j.reused && j.run_id)
+      if (auto d = queue->out_dir_of_run(*j.run_id)) return *d;
+    return j.out_dir;
+  }
+
+  void setup_routes();
+  void dispatch(const httplib::Request& req, httplib::Response& res);
+  void worker_loop(int index);
+  void run_job(const Job& job);
+};
+
+void Server::Impl::setup_routes() {
+  add("/health", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
+    only_params(req, {});
+    json counts = queue->counts_by_status();
+    send_json(res, 200,
+              {{"status", "ok"},
+               {"version", RUNOUT_VERSION},
+               {"schema_version", store->schema_version()},
+               {"workers", opt.workers},
+               {"busy_workers", busy.load()},
+               {"threads_per_job", threads_per_job},
+               {"particle_budget", opt.particle_budget},
+               {"auth", opt.token.empty() ? "open" : "bearer token for writes"},
+               {"jobs", counts}});
+  });
+  add("/openapi.json", "GET", [](const httplib::Request&, httplib::Response& res, const std::smatch&) {
+    res.status = 200;
+    res.set_content(openapi_json(), "application/json");
+  });
+
+  // Scenes.
+  add("/scenes", "POST", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
+    only_params(req, {});
+    check_json_body(req);
+    const NewScene s = parse_scene_request(req.body, limits);
+    std::string structures = json(s.structures).dump();
+    auto [row, created] = queue->put_scene(s.name, s.content_hash, s.scene_json, structures);
+    res.set_header("Location", kPrefix + "/scenes/" + std::to_string(row.id));
+    send_json(res, created ? 201 : 200, scene_json(row, false));
+  });
+  add("/scenes", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
+    only_params(req, {});
+    json list = json::array();
+    for (const auto& s : queue->list_scenes()) list.push_back(scene_json(s, false));
+    send_json(res, 200, {{"scenes", list}});
+  });
+  add(R"(/scenes/(\d{1,18}))", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+    only_params(req, {});
+    auto s = queue->get_scene(std::stoll(m[1].str()));
+    if (!s) throw ApiError(404, "id", "no scene with id " + m[1].str());
+    send_json(res, 200, scene_json(*s, true));
+  });
+
+  // Jobs.
+  add("/jobs", "POST", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
+    only_params(req, {});
+    check_json_body(req);
+    const auto hkey = header_key(req);
+    std::optional<std::string> bkey;
+    const JobSpec spec = parse_job_request(req.body, limits, *queue, bkey);
+    auto [job, created] = queue->submit(spec, pick_key(hkey, bkey));
+    if (created) wake.notify_one();
+    res.set_header("Location", kPrefix + "/jobs/" + std::to_string(job.id));
+    send_json(res, created ? 201 : 200, job_json(job, false));
+  });
+  add("/jobs", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
+    only_params(req, {"status", "sweep", "limit", "offset"});
+    std::optional<std::string> status;
+    std::optional<int64_t> sweep;
+    if (req.has_param("status")) {
+      status = req.get_param_value("status");
+      if (!kStates.count(*status))
+        throw ApiError(400, "status", "unknown status '" + status->substr(0, 40) +
+                                          "' (accepted: queued, running, done, failed, cancelled)");
+    }
+    if (req.has_param("sweep")) {
+      sweep = int_param("sweep", req.get_param_value("sweep"), 1, INT64_MAX / 2);
+      if (!queue->get_sweep(*sweep)) throw ApiError(404, "sweep", "no sweep with id " + std::to_string(*sweep));
+    }
+    const int64_t limit = req.has_param("limit") ? int_param("limit", req.get_param_value("limit"), 1, 10000) : 1000;
+    const int64_t offset = req.has_param("offset") ? int_param("offset", req.get_param_value("offset"), 0, INT64_MAX / 2) : 0;
+    json list = json::array();
+    for (const auto& j : queue->list(status, sweep, limit, offset)) list.push_back(job_json(j, false));
+    send_json(res, 200, {{"total", queue->count(status, sweep)}, {"limit", limit}, {"offset", offset}, {"jobs", list}});
+  });
+  add(R"(/jobs/(\d{1,18}))", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+    only_params(req, {});
+    send_json(res, 200, job_json(require_job(m[1].str()), true));
+  });
+  add(R"(/jobs/(\d{1,18}))", "DELETE", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+    only_params(req, {});
+    const int64_t id = std::stoll(m[1].str());
+    auto r = queue->cancel(id);
+    if (!r) throw ApiError(404, "id", "no job with id " + m[1].str());
+    auto [outcome, job] = *r;
+    switch (outcome) {
+      case JobQueue::CancelOutcome::cancelled:
+      case JobQueue::CancelOutcome::already_cancelled:
+        send_json(res, 200, job_json(job, false));
+        return;
+      case JobQueue::CancelOutcome::requested: {
+        std::lock_guard lock(mutex);
+        if (auto it = running.find(id); it != running.end()) {
+          it->second->cancel = true;
+          it->second->stop = true;
+        }
+        send_json(res, 202, job_json(job, false));
+        return;
+      }
+      case JobQueue::CancelOutcome::finished:
+        throw ApiError(409, "status", "job " + m[1].str() + " is already " + job.status +
+                                          " (accepted: a queued or running job)");
+    }
+  });
+  add("/sweeps", "POST", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
+    only_params(req, {});
+    check_json_body(req);
+    const auto hkey = header_key(req);
+    std::optional<std::string> bkey;
+    const NewSweep s = parse_sweep_request(req.body, limits, *queue, bkey);
+    auto [row, created] = queue->submit_sweep(s.name, s.scene_id, s.fidelity, s.jobs, pick_key(hkey, bkey));
+    if (created) wake.notify_all();
+    json jobs = json::array();
+    for (const auto& j : queue->list(std::nullopt, row.id, 10000, 0)) jobs.push_back(job_json(j, false));
+    res.set_header("Location", kPrefix + "/jobs?sweep=" + std::to_string(row.id));
+    send_json(res, created ? 201 : 200,
+              {{"id", row.id},
+               {"name", row.name},
+               {"scene_id", row.scene_id ? json(*row.scene_id) : json(nullptr)},
+               {"fidelity", row.fidelity},
+               {"created_at", row.created_at},
+               {"jobs", jobs}});
+  });
+
+  // Results.
+  add(R"(/jobs/(\d{1,18})/metrics)", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+    only_params(req, {});
+    const Job j = require_job(m[1].str());
+    const int64_t run = run_of(j);
+    json flat = json::object();
+    for (const auto& [k, v] : store->metrics(run)) flat[k] = v;
+    const auto row = store->get_run(run);
+    send_json(res, 200,
+              {{"job", j.id},
+               {"run_id", run},
+               {"run_status", row ? row->status : ""},
+               {"manifest_hash", row ? row->manifest_hash : ""},
+               {"metrics", flat},
+               {"metrics_json", json::parse(store->metrics_json(run), nullptr, false)},
+               {"series", store->series_names(run)}});
+  });
+  add(R"(/jobs/(\d{1,18})/series/(.+)\.csv)", "GET",
+      [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+        only_params(req, {});
+        const std::string name = m[2].str();
+        if (!safe_file_name(name))
+          throw ApiError(400, "name", "series name must be 1 to 64 of A-Z a-z 0-9 _ . - without '..'");
+        const Job j = require_job(m[1].str());
+        const int64_t run = run_of(j);
+        auto csv = store->series_csv(run, name);
+        if (!csv) {
+          std::string list;
+          for (const auto& n : store->series_names(run)) list += (list.empty() ? "" : ", ") + n;
+          throw ApiError(404, "name", "job " + m[1].str() + " has no series '" + name + "' (available: " + list + ")");
+        }
+        res.status = 200;
+        res.set_content(*csv, "text/csv");
+      });
+  auto raster = [this](const std::string& id, const std::string& file, httplib::Response& res, const char* type) {
+    const Job j = require_job(id);
+    (void)run_of(j);
+    const fs::path p = out_dir_of(j) / "rasters" / file;
+    if (!fs::is_regular_file(p))
+      throw ApiError(404, "name", "job " + id + " has no raster '" + file +
+                                      "' (rasters exist for terrain scenes: max_depth, max_speed, deposit_depth; map.png)");
+    res.status = 200;
+    res.set_content(read_file(p), type);
+  };
+  add(R"(/jobs/(\d{1,18})/rasters/(.+)\.tif)", "GET",
+      [this, raster](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+        only_params(req, {});
+        if (!safe_file_name(m[2].str()))
+          throw ApiError(400, "name", "raster name must be 1 to 64 of A-Z a-z 0-9 _ . - without '..'");
+        raster(m[1].str(), m[2].str() + ".tif", res, "image/tiff");
+      });
+  add(R"(/jobs/(\d{1,18})/map\.png)", "GET",
+      [this, raster](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+        only_params(req, {});
+        raster(m[1].str(), "max_depth.png", res, "image/png");
+      });
+  add("/compare", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
+    only_params(req, {"jobs", "baseline"});
+    if (!req.has_param("jobs")) throw ApiError(400, "jobs", "missing (required: 1 to 50 job ids separated by commas)");
+    std::vector<int64_t> ids;
+    std::stringstream ss(req.get_param_value("jobs"));
+    for (std::string part; std::getline(ss, part, ',');) ids.push_back(int_param("jobs", part, 1, INT64_MAX / 2));
+    if (ids.empty() || ids.size() > 50) throw ApiError(400, "jobs", "must list 1 to 50 job ids separated by commas");
+    const int64_t base_id =
+        req.has_param("baseline") ? int_param("baseline", req.get_param_value("baseline"), 1, INT64_MAX / 2) : ids.front();
+    auto run_for = [&](int64_t id, const char* field) {
+      auto j = queue->get(id);
+      if (!j) throw ApiError(404, field, "no job with id " + std::to_string(id));
+      if (j->status != "done" || !j->run_id)
+        throw ApiError(409, field, "job " + std::to_string(id) + " is " + j->status + " (accepted: done jobs)");
+      return *j->run_id;
+    };
+    const int64_t base_run = run_for(base_id, "baseline");
+    std::vector<int64_t> job_ids, runs;
+    for (int64_t id : ids) {
+      if (id == base_id) continue;
+      job_ids.push_back(id);
+      runs.push_back(run_for(id, "jobs"));
+    }
+    const Comparison c = compare_runs(*store, runs, base_run);
+    auto num = [](const std::optional<double>& v) -> json { return v ? json(*v) : json(nullptr); };
+    json rows = json::array();
+    for (const auto& r : c.rows) {
+      json values = json::array(), diffs = json::array(), pct = json::array();
+      for (size_t k = 0; k < r.values.size(); ++k) {
+        values.push_back(num(r.values[k]));
+        diffs.push_back(r.values[k] && r.baseline ? json(*r.values[k] - *r.baseline) : json(nullptr));
+        pct.push_back(num(r.percent[k]));
+      }
+      rows.push_back({{"metric", r.metric}, {"baseline", num(r.baseline)}, {"values", values}, {"difference", diffs},
+                      {"percent", pct}});
+    }
+    json columns = json::array();
+    for (size_t k = 0; k < job_ids.size(); ++k) columns.push_back({{"job", job_ids[k]}, {"run_id", runs[k]}, {"label", c.runs[k]}});
+    send_json(res, 200,
+              {{"baseline", {{"job", base_id}, {"run_id", base_run}, {"label", c.baseline}}},
+               {"jobs", columns},
+               {"metrics", rows}});
+  });
+}
+
+void Server::Impl::dispatch(const httplib::Request& req, httplib::Response& res) {
+  const auto t0 = Clock::now();
+  const std::string method = req.method == "HEAD" ? "GET" : req.method;
+  try {
+    const Route* route = nullptr;
+    std::smatch m;
+    for (const auto& r : routes)
+      if (std::regex_match(req.path, m, r.pattern)) {
+        route = &r;
+        break;
+      }
+    if (!route) {
+      throw ApiError(404, "path", "no such resource: " + req.path.substr(0, 200) + " (the API is under " + kPrefix +
+                                      ", see " + kPrefix + "/openapi.json)");
+    }
+    const std::string allow = allow_of(*route);
+    if (method == "OPTIONS") {
+      res.status = 204;
+      res.set_header("Allow", allow);
+    } else {
+      auto it = route->methods.find(method);
+      if (it == route->methods.end()) {
+        res.set_header("Allow", allow);
+        throw ApiError(405, "method", req.method + " is not allowed here (accepted: " + allow + ")");
+      }
+      if (route->write(method)) authorize(req);
+      it->second(req, res, m);
+    }
+  } catch (const ApiError& e) {
+    if (e.status == 401) res.set_header("WWW-Authenticate", "Bearer");
+    send_error(res, e.status, e.field, e.what());
+  } catch (const std::exception& e) {
+    spdlog::error("{} {}: {}", req.method, req.path, e.what());
+    send_error(res, 500, "", std::string("internal error: ") + e.what());
+  }
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  // Method, path and status only: never headers (the token) or bodies.
+  spdlog::debug("{} {} {} {:.1f} ms", req.method, req.path, res.status, ms);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Workers
+
+void Server::Impl::worker_loop(int index) {
+  for (;;) {
+    {
+      std::unique_lock lock(mutex);
+      if (stopping) return;
+    }
+    std::optional<Job> job;
+    try {
+      job = queue->claim((opt.runs_dir / "service").string());
+    } catch (const std::exception& e) {
+      spdlog::error("worker {}: claiming a job: {}", index, e.what());
+    }
+    if (!job) {
+      std::unique_lock lock(mutex);
+      wake.wait_for(lock, std::chrono::seconds(1), [&] { return stopping; });
+      continue;
+    }
+    busy++;
+    run_job(*job);
+    busy--;
+  }
+}
+
+void Server::Impl::run_job(const Job& job) {
+  auto flags = std::make_shared<Running>();
+  {
+    std::lock_guard lock(mutex);
+    running[job.id] = flags;
+    if (stopping) flags->stop = true;
+  }
+  if (job.cancel_requested) {  // asked between the claim and now
+    flags->cancel = true;
+    flags->stop = true;
+  }
+  spdlog::info("job {} ({}{}{}) running, attempt {}", job.id, job.scene_name, job.variant.empty() ? "" : " ",
+               job.variant, job.attempts);
+  StoreRunOptions o;
+  o.sweep = job.sweep;
+  o.variant = job.variant;
+  o.fidelity.name = job.fidelity;
+  o.fidelity.dp = job.dp;
+  o.run.out_dir = job.out_dir;
+  o.run.threads = threads_per_job;
+  o.run.stop = &flags->stop;
+  auto last = Clock::now();
+  std::optional<RunProgress> latest;
+  o.run.on_progress = [&](const RunProgress& p) {
+    latest = p;
+    const auto now = Clock::now();
+    if (now - last < std::chrono::milliseconds(500)) return;
+    last = now;
+    std::optional<double> eta;
+    if (p.time > 0 && p.duration > p.time) eta = p.wall_seconds * (p.duration - p.time) / p.time;
+    try {
+      queue->progress(job.id, p.time, p.duration, p.steps, p.wall_seconds, eta);
+    } catch (const std::exception& e) {
+      spdlog::warn("job {}: progress not written: {}", job.id, e.what());
+    }
+  };
+  std::string status, error;
+  std::optional<int64_t> run_id;
+  bool reused = false;
+  try {
+    RunStore store(opt.db);  // this worker's own connection
+    const StoredRun r = run_and_store(store, job.scene_json, opt.scene_dir, o);
+    reused = r.reused;
+    if (r.status == "completed") {
+      status = "done";
+      run_id = r.run_id;
+    } else if (r.status == "stopped") {
+      status = flags->cancel ? "cancelled" : "requeue";
+    } else {
+      status = "failed";
+      error = r.error.empty() ? "run " + r.status : r.error;
+      run_id = r.run_id;
+    }
+  } catch (const std::exception& e) {
+    status = flags->cancel ? "cancelled" : "failed";
+    error = e.what();
+  }
+  {
+    std::lock_guard lock(mutex);
+    running.erase(job.id);
+    if (stopping && status == "cancelled" && !flags->cancel) status = "requeue";
+  }
+  try {
+    if (status == "requeue") {
+      queue->requeue(job.id);
+      spdlog::info("job {} stopped by shutdown: back in the queue", job.id);
+    } else {
+      if (latest) queue->progress(job.id, latest->time, latest->duration, latest->steps, latest->wall_seconds, std::nullopt);
+      queue->finish(job.id, status, run_id, reused, error);
+      spdlog::info("job {} {}{}{}", job.id, status, error.empty() ? "" : ": ", error);
+    }
+  } catch (const std::exception& e) {
+    spdlog::error("job {}: could not record '{}': {} (it is requeued at the next start)", job.id, status, e.what());
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+
+Server::Server(ServeOptions options) : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  m.opt = std::move(options);
+  m.limits.particle_budget = m.opt.particle_budget;
+  m.limits.scene_dir = m.opt.scene_dir;
+  // One server per database file: the queue's recovery assumes no other server runs its jobs.
+  const std::string lock_path = m.opt.db.string() + ".serve-lock";
+  m.lock_fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (m.lock_fd < 0) throw std::runtime_error("cannot open the lock file " + lock_path);
+  if (::flock(m.lock_fd, LOCK_EX | LOCK_NB) != 0) {
+    ::close(m.lock_fd);
+    m.lock_fd = -1;
+    throw std::runtime_error("another `runout serve` is using " + m.opt.db.string() + " (lock " + lock_path + ")");
+  }
+  m.store = std::make_unique<RunStore>(m.opt.db);  // creates or migrates the file
+  m.queue = std::make_unique<JobQueue>(m.opt.db);
+  const int workers = std::max(0, m.opt.workers);
+  m.threads_per_job = m.opt.threads_per_job > 0 ? m.opt.threads_per_job
+                                                : std::max(1, omp_get_num_procs() / std::max(1, workers));
+  m.setup_routes();
+}
+
+Server::~Server() {
+  stop();
+  if (impl_->lock_fd >= 0) ::close(impl_->lock_fd);
+}
+
+int Server::start() {
+  Impl& m = *impl_;
+  m.http.set_payload_max_length(m.opt.max_body);
+  // Headers and body are separate writes: without TCP_NODELAY, Nagle + delayed ACK add ~40 ms to small replies.
+  m.http.set_tcp_nodelay(true);
+  const int http_threads = std::max(2, m.opt.http_threads);
+  m.http.new_task_queue = [http_threads] { return new httplib::ThreadPool(static_cast<size_t>(http_threads)); };
+  // Every method and path goes to one dispatcher (after httplib has read the body), which answers 404 and
+  // 405 (with Allow) itself.
+  const httplib::Server::Handler all = [&m](const httplib::Request& req, httplib::Response& res) { m.dispatch(req, res); };
+  m.http.Get(".*", all);
+  m.http.Post(".*", all);
+  m.http.Put(".*", all);
+  m.http.Patch(".*", all);
+  m.http.Delete(".*", all);
+  m.http.Options(".*", all);
+  // Errors httplib answers itself (413 body too large, 400 unreadable request): a JSON body too.
+  m.http.set_error_handler(httplib::Server::HandlerWithResponse([&m](const httplib::Request&, httplib::Response& res) {
+    if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+    if (res.status == 413)
+      send_error(res, 413, "(body)", "the body is over the limit (accepted: at most " + std::to_string(m.opt.max_body) +
+                                         " bytes, --max-body)");
+    else
+      send_error(res, res.status, "(request)", "the request could not be read (HTTP " + std::to_string(res.status) + ")");
+    return httplib::Server::HandlerResponse::Handled;
+  }));
+  if (m.opt.port == 0) {
+    m.port = m.http.bind_to_any_port(m.opt.host);
+    if (m.port < 0) throw std::runtime_error("cannot bind to " + m.opt.host);
+  } else {
+    if (!m.http.bind_to_port(m.opt.host, m.opt.port))
+      throw std::runtime_error("cannot bind to " + m.opt.host + ":" + std::to_string(m.opt.port));
+    m.port = m.opt.port;
+  }
+  const int requeued = m.queue->recover();
+  if (requeued > 0) spdlog::warn("{} job(s) left running by a previous server are back in the queue", requeued);
+  for (int k = 0; k < m.opt.workers; ++k) m.workers.emplace_back([&m, k] { m.worker_loop(k); });
+  return m.port;
+}
+
+bool Server::serve() { return impl_->http.listen_after_bind(); }
+
+void Server::stop() {
+  Impl& m = *impl_;
+  {
+    std::lock_guard lock(m.mutex);
+    if (m.stopping && m.workers.empty()) return;
+    m.stopping = true;
+    for (auto& [id, f] : m.running) f->stop = true;
+  }
+  m.wake.notify_all();
+  m.http.stop();
+  for (auto& t : m.workers) t.join();
+  m.workers.clear();
+}
+
+}  // namespace runout::service

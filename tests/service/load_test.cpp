@@ -1,0 +1,104 @@
+// Load (issue 5, item 3): 1000 submissions from 16 concurrent clients to a server that queues without
+// running (--workers 0). Every submission is accepted exactly once (ids unique, 1000 rows; retries with the
+// same idempotency key return the original job), and GET /health answers throughout.
+#include "service/service_harness.hpp"
+
+#include <atomic>
+#include <mutex>
+#include <set>
+
+using namespace runout_test;
+
+namespace {
+
+class Load : public ServiceTest {};
+
+TEST_F(Load, ThousandSubmissionsFromSixteenClientsAreAcceptedExactlyOnce) {
+  start({"--workers", "0"});
+  constexpr int kClients = 16, kJobs = 1000;
+  std::mutex mutex;
+  std::vector<int64_t> ids;
+  std::map<int, int64_t> id_of;  // submission -> job id
+  std::atomic<int> failures{0}, retried{0};
+  std::atomic<bool> done{false};
+
+  // /health polled throughout; every poll must answer 200.
+  std::atomic<int> health_ok{0}, health_bad{0};
+  double health_max_ms = 0;
+  std::thread health([&] {
+    auto c = client();
+    while (!done.load()) {
+      const auto t0 = std::chrono::steady_clock::now();
+      auto r = c.Get("/api/v1/health");
+      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      if (r && r->status == 200) {
+        ++health_ok;
+        health_max_ms = std::max(health_max_ms, ms);
+      } else {
+        ++health_bad;
+      }
+      std::this_thread::sleep_for(20ms);
+    }
+  });
+
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<std::thread> clients;
+  for (int t = 0; t < kClients; ++t) {
+    clients.emplace_back([&, t] {
+      auto c = client();  // keep-alive connection per client
+      for (int i = t; i < kJobs; i += kClients) {
+        const std::string key = "load-" + std::to_string(i);
+        const std::string body = json{{"scene", tiny_scene("load-" + std::to_string(i))}}.dump();
+        auto r = c.Post("/api/v1/jobs", {{"Idempotency-Key", key}}, body, "application/json");
+        if (!r || r->status != 201) {
+          ++failures;
+          continue;
+        }
+        const int64_t id = json::parse(r->body).at("id");
+        if (i % 10 == 0) {  // a client retry: the same job, 200
+          auto again = c.Post("/api/v1/jobs", {{"Idempotency-Key", key}}, body, "application/json");
+          if (!again || again->status != 200 || json::parse(again->body).at("id") != id) ++failures;
+          ++retried;
+        }
+        std::lock_guard lock(mutex);
+        ids.push_back(id);
+        id_of[i] = id;
+      }
+    });
+  }
+  for (auto& th : clients) th.join();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::this_thread::sleep_for(100ms);
+  done = true;
+  health.join();
+  std::cerr << "[load] " << kJobs << " submissions (+" << retried.load() << " retries) from " << kClients
+            << " clients in " << seconds << " s; /health answered " << health_ok.load() << " times, max "
+            << health_max_ms << " ms\n";
+
+  EXPECT_EQ(failures.load(), 0);
+  ASSERT_EQ(ids.size(), static_cast<size_t>(kJobs));
+  EXPECT_EQ(std::set<int64_t>(ids.begin(), ids.end()).size(), static_cast<size_t>(kJobs));
+  EXPECT_EQ(health_bad.load(), 0);
+  EXPECT_GT(health_ok.load(), 0);
+  EXPECT_EQ(query_int("SELECT COUNT(*) FROM jobs"), kJobs);
+  EXPECT_EQ(query_int("SELECT COUNT(DISTINCT idempotency_key) FROM jobs"), kJobs);
+  EXPECT_EQ(query_int("SELECT COUNT(*) FROM jobs WHERE status = 'queued'"), kJobs);
+
+  // The list agrees: 1000 queued jobs, each id once, each with its own scene.
+  const Reply list = get("/jobs?status=queued&limit=10000");
+  ASSERT_EQ(list.status, 200);
+  EXPECT_EQ(list.body.at("total"), kJobs);
+  std::set<int64_t> listed;
+  std::set<std::string> names;
+  for (const auto& j : list.body.at("jobs")) {
+    listed.insert(j.at("id").get<int64_t>());
+    names.insert(j.at("scene_name").get<std::string>());
+  }
+  EXPECT_EQ(listed, std::set<int64_t>(ids.begin(), ids.end()));
+  EXPECT_EQ(names.size(), static_cast<size_t>(kJobs));
+  const Reply one = get("/jobs/" + std::to_string(id_of[537]));
+  ASSERT_EQ(one.status, 200);
+  EXPECT_EQ(one.body.at("scene_name"), "load-537");
+}
+
+}  // namespace
