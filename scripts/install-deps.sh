@@ -12,7 +12,14 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev libspdlog-dev
   python-matplotlib-data
+  chromium
+  libopenmpi-dev openmpi-bin  # optional for the build: sweeps over MPI ranks (docs/cluster.md)
 )
+# The web page (web/, docs/web.md) is built with npm and its browser test runs under Node. Node 20 and npm
+# come with the machine (NodeSource); Debian's own nodejs/npm are installed only where `node`/`npm` are missing
+# (Debian's npm conflicts with NodeSource's nodejs).
+command -v node >/dev/null 2>&1 || packages+=(nodejs)
+command -v npm >/dev/null 2>&1 || packages+=(npm)
 
 missing=()
 for p in "${packages[@]}"; do

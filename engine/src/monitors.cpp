@@ -26,17 +26,31 @@ class SectionGauge final : public Monitor<D> {
                                   std::string(D == 3 ? "at least 2 points" : "1 point"));
     const auto& f = s.fluid();
     for (const auto& m : s.materials()) inv_rho0_.push_back(1 / m.density);
-    side_.assign(f.size(), 0);
-    // Downstream is the side away from where the flow starts.
+    side_.assign(s.id_bound(), 0);
+    // Downstream is the side away from where the flow starts: the side most of the flow is not on, when
+    // most of it lies within the line's ends; otherwise (a release beside or beyond a short line) the side
+    // of the line, extended, opposite the flow's centroid. The order of the line's points does not matter.
     long pos = 0, neg = 0;
     real volume = 0;
+    std::array<double, 2> centroid{0, 0};
+    // A scene whose flow all comes from inlets: their buffers say where it starts.
+    size_t n_flow = 0;
+    const bool inlets_only = std::all_of(f.tag.begin(), f.tag.end(), Solver<D>::is_inlet_buffer);
     for (size_t i = 0; i < f.size(); ++i) {
+      if (Solver<D>::is_inlet_buffer(f.tag[i]) && !inlets_only) continue;
+      ++n_flow;
       const int raw = raw_side(f, i);
       pos += raw > 0;
       neg += raw < 0;
-      volume += f.mass[i] * inv_rho0_[f.material[i]];
+      if (!inlets_only) volume += f.mass[i] * inv_rho0_[f.material[i]];
+      for (int d = 0; d < 2 && d < D; ++d) centroid[d] += f.pos[d][i];
     }
-    downstream_ = pos > neg ? -1 : 1;
+    if (2 * (pos + neg) > static_cast<long>(n_flow) && pos != neg) {
+      downstream_ = pos > neg ? -1 : 1;
+    } else if (n_flow > 0) {
+      for (auto& c : centroid) c /= static_cast<double>(n_flow);
+      downstream_ = -side_of_extended_line(centroid[0], centroid[1]);
+    }
     for (size_t i = 0; i < f.size(); ++i) side_[f.id[i]] = static_cast<int8_t>(raw_side(f, i) * downstream_);
     arrival_volume_ = spec.arrival_volume > 0 ? spec.arrival_volume : 0.005 * volume;
   }
@@ -45,9 +59,11 @@ class SectionGauge final : public Monitor<D> {
 
   void after_step(const Solver<D>& s) override {
     const auto& f = s.fluid();
+    if (side_.size() < s.id_bound()) side_.resize(s.id_bound(), 0);  // particles an inlet added
     real dv = 0;
 #pragma omp parallel for reduction(+ : dv) schedule(static)
     for (size_t i = 0; i < f.size(); ++i) {
+      if (Solver<D>::is_inlet_buffer(f.tag[i])) continue;  // not flow yet
       const int now = raw_side(f, i) * downstream_;
       if (now == 0) continue;
       int8_t& before = side_[f.id[i]];
@@ -56,7 +72,7 @@ class SectionGauge final : public Monitor<D> {
       before = static_cast<int8_t>(now);
     }
     passed_ += dv;
-    if (arrival_time_ < 0 && passed_ >= arrival_volume_) arrival_time_ = s.time();
+    if (arrival_time_ < 0 && passed_ > 0 && passed_ >= arrival_volume_) arrival_time_ = s.time();
   }
 
   std::vector<real> sample(const Solver<D>& s) override {
@@ -83,6 +99,28 @@ class SectionGauge final : public Monitor<D> {
   int downstream_ = 1;
   real arrival_volume_ = 0, passed_ = 0, last_passed_ = 0, last_t_ = 0;
   real peak_ = 0, peak_time_ = 0, arrival_time_ = -1;
+
+  // +1/-1 by the side of the segment nearest to (x, y) (distance to the segment, ends included), its line
+  // extended; in 2D by x against the section. Never 0 (a point exactly on the line counts as +1).
+  int side_of_extended_line(real x, real y) const {
+    if constexpr (D == 2) {
+      (void)y;
+      return x >= pts_[0][0] ? 1 : -1;
+    } else {
+      real best = std::numeric_limits<real>::infinity();
+      int side = 1;
+      for (size_t k = 0; k + 1 < pts_.size(); ++k) {
+        const real ax = pts_[k][0], ay = pts_[k][1];
+        const real ex = pts_[k + 1][0] - ax, ey = pts_[k + 1][1] - ay;
+        const real len2 = ex * ex + ey * ey;
+        const real t = std::clamp(((x - ax) * ex + (y - ay) * ey) / len2, real(0), real(1));
+        const real dx = x - (ax + t * ex), dy = y - (ay + t * ey);
+        const real d2 = dx * dx + dy * dy;
+        if (d2 < best) best = d2, side = ex * (y - ay) - ey * (x - ax) >= 0 ? 1 : -1;
+      }
+      return side;
+    }
+  }
 
   // +1/-1 by the side of the nearest segment whose extent the particle is in, 0 if none.
   int raw_side(const ParticleArrays<D>& f, size_t i) const {

@@ -27,6 +27,20 @@ void ParticleArrays<D>::add(const Vec<D>& p, real density, real m, uint16_t mat,
 long double MassBalance::total_initial() const { return std::accumulate(initial.begin(), initial.end(), 0.0L); }
 long double MassBalance::total_current() const { return std::accumulate(current.begin(), current.end(), 0.0L); }
 long double MassBalance::total_outflow() const { return std::accumulate(outflow.begin(), outflow.end(), 0.0L); }
+long double MassBalance::total_inflow() const { return std::accumulate(inflow.begin(), inflow.end(), 0.0L); }
+
+template <int D>
+real InletSpec<D>::speed_at(real t) const {
+  if (speed.empty()) return 0;
+  if (t <= speed.front()[0]) return speed.front()[1];
+  for (size_t k = 1; k < speed.size(); ++k)
+    if (t < speed[k][0]) {
+      const auto& a = speed[k - 1];
+      const auto& b = speed[k];
+      return a[1] + (b[1] - a[1]) * (t - a[0]) / (b[0] - a[0]);
+    }
+  return speed.back()[1];
+}
 
 namespace {
 
@@ -142,9 +156,12 @@ Solver<D>::Solver(SceneSetup<D> setup)
       materials_(std::move(setup.materials)),
       fluid_(std::move(setup.fluid)),
       boundary_(std::move(setup.boundary)),
-      leak_regions_(std::move(setup.leak_regions)) {
+      leak_regions_(std::move(setup.leak_regions)),
+      inlets_(std::move(setup.inlets)) {
   auto& I = *impl_;
   for (const auto& m : materials_) rheologies_.push_back(make_rheology(m));
+  for (uint32_t id : fluid_.id) next_id_ = std::max(next_id_, id + 1);
+  create_inlet_buffers();
 
   const real h = config_.smoothing_length;
   const real support = 2.0 * h;
@@ -224,7 +241,9 @@ Solver<D>::Solver(SceneSetup<D> setup)
 
   mass_.initial.assign(materials_.size(), 0.0L);
   mass_.outflow.assign(materials_.size(), 0.0L);
-  for (size_t i = 0; i < fluid_.size(); ++i) mass_.initial[fluid_.material[i]] += fluid_.mass[i];
+  mass_.inflow.assign(materials_.size(), 0.0L);
+  for (size_t i = 0; i < fluid_.size(); ++i)
+    if (!is_inlet_buffer(fluid_.tag[i])) mass_.initial[fluid_.material[i]] += fluid_.mass[i];
   potential_initial_ = potential_energy();
   // Verlet keeps the previous step's velocity and density in the saved arrays.
   for (int d = 0; d < D; ++d) {
@@ -241,6 +260,7 @@ template <int D>
 real Solver<D>::potential_energy() const {
   long double pe = 0;
   for (size_t i = 0; i < fluid_.size(); ++i) {
+    if (is_inlet_buffer(fluid_.tag[i])) continue;
     real gx = 0;
     for (int d = 0; d < D; ++d) gx += config_.gravity[d] * fluid_.pos[d][i];
     pe -= fluid_.mass[i] * gx;
@@ -252,7 +272,8 @@ template <int D>
 MassBalance Solver<D>::mass_balance() const {
   MassBalance m = mass_;
   m.current.assign(materials_.size(), 0.0L);
-  for (size_t i = 0; i < fluid_.size(); ++i) m.current[fluid_.material[i]] += fluid_.mass[i];
+  for (size_t i = 0; i < fluid_.size(); ++i)
+    if (!is_inlet_buffer(fluid_.tag[i])) m.current[fluid_.material[i]] += fluid_.mass[i];
   return m;
 }
 
@@ -261,12 +282,14 @@ EnergySummary Solver<D>::energy() const {
   EnergySummary e;
   long double ke = 0;
   for (size_t i = 0; i < fluid_.size(); ++i) {
+    if (is_inlet_buffer(fluid_.tag[i])) continue;
     real v2 = 0;
     for (int d = 0; d < D; ++d) v2 += fluid_.vel[d][i] * fluid_.vel[d][i];
     ke += 0.5 * fluid_.mass[i] * v2;
   }
   e.kinetic = static_cast<real>(ke);
   e.potential_released = potential_initial_ - (potential_energy() + potential_outflow_);
+  e.inflow_kinetic = kinetic_inflow_;
   return e;
 }
 
@@ -300,6 +323,7 @@ void Solver<D>::sort_and_build_cells() {
         out = true;
       }
     }
+    if (!inlets_.empty() && !is_inlet_buffer(fluid_.tag[i])) out = out || in_inlet_buffer(p);
     I.sort_buf[i] = {out ? kRemovedKey : Impl::pack(I.coords(p)), static_cast<uint32_t>(i)};
     removed += out ? 1 : 0;
   }
@@ -817,6 +841,15 @@ void Solver<D>::evaluate(bool compute_dt) {
       interact.template operator()<false>(kernel);
   });
   max_acc = std::sqrt(max_acc);
+  // Inlet buffers move at their inlet's velocity with a fixed density: no rates, no wall contact.
+  if (!inlets_.empty()) {
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; ++i) {
+      if (!is_inlet_buffer(fluid_.tag[i])) continue;
+      for (int d = 0; d < D; ++d) acc_[d][i] = 0, contact_normal_[d][i] = 0;
+      drho_[i] = 0;
+    }
+  }
 
   stats_.active_boundary = 0;
   for (uint32_t cb : I.active_bcells) stats_.active_boundary += I.bcell_begin[cb + 1] - I.bcell_begin[cb];
@@ -850,6 +883,7 @@ template <int D>
 const StepStats& Solver<D>::step() {
   auto& I = *impl_;
   sort_and_build_cells();
+  if (!inlets_.empty()) impose_inlet_state();
   evaluate(true);
   const real dt = stats_.dt;
   const size_t n = fluid_.size();
@@ -934,6 +968,7 @@ const StepStats& Solver<D>::step() {
   time_ += dt;
   ++steps_;
   min_dt_seen_ = std::min(min_dt_seen_, dt);
+  if (!inlets_.empty()) advance_inlets();
   check_state();
   return stats_;
 }
@@ -972,6 +1007,7 @@ void Solver<D>::check_state() {
   int leak_region = -1;
 #pragma omp parallel for reduction(min : leak)
   for (size_t i = 0; i < n; ++i) {
+    if (is_inlet_buffer(fluid_.tag[i])) continue;  // moved by their inlet, checked when it is built
     const Vec<D> p = fluid_.position(i);
     for (int d = 0; d < D; ++d) {
       if (config_.periodic[d] || d == D - 1) continue;  // the vertical top is open; the bottom is a wall
@@ -1002,6 +1038,151 @@ void Solver<D>::check_state() {
   }
 }
 
+// Inlets ------------------------------------------------------------------------------------------------
+
+int inlet_buffer_layers(const SolverConfig& c) {
+  return static_cast<int>(std::ceil(2 * c.smoothing_length / c.dp - 1e-9)) + 1;
+}
+
+namespace {
+// The coordinates of the opening, in axis order: 2D: z; 3D: the other horizontal axis, then z.
+template <int D>
+std::array<int, D - 1> opening_axes(int axis) {
+  std::array<int, D - 1> a{};
+  int k = 0;
+  for (int d = 0; d < D; ++d)
+    if (d != axis) a[k++] = d;
+  return a;
+}
+}  // namespace
+
+template <int D>
+real Solver<D>::inlet_density(const InletSpec<D>& in, real z) const {
+  // Hydrostatic below the opening's top (the inflow's free surface), inverted through Tait.
+  const real rho0 = materials_[in.material].density;
+  const real B = config_.speed_of_sound * config_.speed_of_sound * rho0 / config_.eos_gamma;
+  const real g = std::abs(config_.gravity[D - 1]);
+  const real p = rho0 * g * std::max(real(0), in.hi[D - 2] - z);
+  return rho0 * std::pow(1 + p / B, 1 / config_.eos_gamma);
+}
+
+template <int D>
+bool Solver<D>::in_inlet_buffer(const Vec<D>& p) const {
+  const real length = inlet_buffer_layers(config_) * config_.dp;
+  for (const auto& in : inlets_) {
+    const real behind = in.direction * (in.at - p[in.axis]);  // distance upstream of the plane
+    // Half a spacing of slack: a particle that just crossed may jitter back a little.
+    if (behind < 0.5 * config_.dp || behind > length) continue;
+    // Over the opening at any height: flow that piles up and spills back over the buffer leaves there too
+    // (the inlet is the domain's upstream end).
+    const auto ax = opening_axes<D>(in.axis);
+    bool inside = p[D - 1] >= in.lo[D - 2] - 0.5 * config_.dp;
+    for (int k = 0; k < D - 2; ++k) inside = inside && p[ax[k]] >= in.lo[k] && p[ax[k]] <= in.hi[k];
+    if (inside) return true;
+  }
+  return false;
+}
+
+template <int D>
+void Solver<D>::create_inlet_buffers() {
+  const real dp = config_.dp;
+  const int layers = inlet_buffer_layers(config_);
+  for (size_t k = 0; k < inlets_.size(); ++k) {
+    const auto& in = inlets_[k];
+    const std::string what = "inlet '" + in.name + "'";
+    if (in.axis < 0 || in.axis >= D - 1) throw std::invalid_argument(what + ": the axis must be horizontal");
+    if (in.direction != 1 && in.direction != -1) throw std::invalid_argument(what + ": direction must be +1 or -1");
+    if (in.material >= materials_.size()) throw std::invalid_argument(what + ": unknown material");
+    if (in.speed.empty()) throw std::invalid_argument(what + ": needs a speed");
+    for (const auto& s : in.speed)
+      if (!(s[1] >= 0) || !std::isfinite(s[1])) throw std::invalid_argument(what + ": speeds must be >= 0");
+    const auto ax = opening_axes<D>(in.axis);
+    std::array<int, D - 1> count{};
+    for (int j = 0; j < D - 1; ++j) {
+      count[j] = static_cast<int>(std::floor((in.hi[j] - in.lo[j]) / dp + 1e-9));
+      if (count[j] < 1)
+        throw std::invalid_argument(what + ": the opening must be at least dp (" + std::to_string(dp) + " m) across");
+    }
+    const real back = in.at - in.direction * layers * dp;
+    if (!config_.periodic[in.axis] && (std::min(back, in.at) < config_.domain_min[in.axis] ||
+                                       std::max(back, in.at) > config_.domain_max[in.axis]))
+      throw std::invalid_argument(what + ": its buffer (" + std::to_string(layers) + " layers of dp behind the plane) "
+                                  "must lie inside the domain");
+    const uint16_t mat = in.material;
+    const real m = materials_[mat].density * std::pow(dp, D);
+    const int total = D == 2 ? count[0] : count[0] * count[D - 2];
+    for (int l = 0; l < layers; ++l)
+      for (int c = 0; c < total; ++c) {
+        Vec<D> p;
+        p[in.axis] = in.at - in.direction * (l + 0.5) * dp;
+        int rem = c;
+        for (int j = 0; j < D - 1; ++j) {
+          p[ax[j]] = in.lo[j] + (rem % count[j] + 0.5) * dp;
+          rem /= count[j];
+        }
+        fluid_.add(p, inlet_density(in, p[D - 1]), m, mat, kInletBufferBit | static_cast<uint32_t>(k));
+        fluid_.id.back() = next_id_++;
+        fluid_.vel[in.axis].back() = in.direction * in.speed_at(0);
+      }
+  }
+}
+
+template <int D>
+void Solver<D>::impose_inlet_state() {
+  const size_t n = fluid_.size();
+  const bool verlet = config_.integrator == Integrator::verlet;
+#pragma omp parallel for schedule(static)
+  for (size_t i = 0; i < n; ++i) {
+    if (!is_inlet_buffer(fluid_.tag[i])) continue;
+    const auto& in = inlets_[fluid_.tag[i] & ~kInletBufferBit];
+    const real u = in.direction * in.speed_at(time_);
+    for (int d = 0; d < D; ++d) {
+      fluid_.vel[d][i] = d == in.axis ? u : 0;
+      if (verlet) vel_saved_[d][i] = fluid_.vel[d][i];
+    }
+    fluid_.rho[i] = inlet_density(in, fluid_.pos[D - 1][i]);
+    if (verlet) rho_saved_[i] = fluid_.rho[i];
+  }
+}
+
+template <int D>
+void Solver<D>::advance_inlets() {
+  const real length = inlet_buffer_layers(config_) * config_.dp;
+  const size_t n = fluid_.size();
+  for (size_t i = 0; i < n; ++i) {
+    if (!is_inlet_buffer(fluid_.tag[i])) continue;
+    const uint32_t k = fluid_.tag[i] & ~kInletBufferBit;
+    const auto& in = inlets_[k];
+    if (in.direction * (fluid_.pos[in.axis][i] - in.at) < 0) continue;
+    // Across the plane: it is flow from now on, and its place at the back of the buffer is taken.
+    fluid_.tag[i] = 0;
+    const uint16_t mat = fluid_.material[i];
+    mass_.inflow[mat] += fluid_.mass[i];
+    real gx = 0, v2 = 0;
+    for (int d = 0; d < D; ++d) gx += config_.gravity[d] * fluid_.pos[d][i], v2 += fluid_.vel[d][i] * fluid_.vel[d][i];
+    potential_initial_ -= fluid_.mass[i] * gx;
+    kinetic_inflow_ += 0.5 * fluid_.mass[i] * v2;
+    Vec<D> p = fluid_.position(i);
+    p[in.axis] -= in.direction * length;
+    fluid_.add(p, fluid_.rho[i], fluid_.mass[i], mat, kInletBufferBit | k);
+    fluid_.id.back() = next_id_++;
+    for (int d = 0; d < D; ++d) fluid_.vel[d].back() = fluid_.vel[d][i];
+  }
+  // Per-particle state the integrators keep between steps must cover the new particles.
+  const size_t m = fluid_.size();
+  if (m > n) {
+    for (int d = 0; d < D; ++d) {
+      pos_saved_[d].resize(m);
+      vel_saved_[d].resize(m);
+      for (size_t i = n; i < m; ++i) pos_saved_[d][i] = fluid_.pos[d][i], vel_saved_[d][i] = fluid_.vel[d][i];
+    }
+    rho_saved_.resize(m);
+    for (size_t i = n; i < m; ++i) rho_saved_[i] = fluid_.rho[i];
+  }
+}
+
+template struct InletSpec<2>;
+template struct InletSpec<3>;
 template struct ParticleArrays<2>;
 template struct ParticleArrays<3>;
 template class Solver<2>;

@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "runout/scenarios/cost_model.hpp"
 #include "runout/terrain/terrain.hpp"
 
 namespace runout {
@@ -331,7 +332,7 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
                                      : 0.0;
   int snap_index = 0;
   real next_snap = 0, next_sample = 0;
-  real max_ke_excess = -1e300;  // max over samples of KE - PE released (must stay <= 0 up to noise)
+  real max_ke_excess = -1e300;  // max over samples of KE - PE released - KE brought in (<= 0 up to noise)
   const auto t0 = clock::now();
   auto last_progress = t0;
   long particle_steps = 0;
@@ -385,7 +386,7 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
         if (watch.active()) watch.update(solver.fluid(), solver.materials(), solver.time());
         sample(st);
         const auto e = solver.energy();
-        max_ke_excess = std::max(max_ke_excess, e.kinetic - e.potential_released);
+        max_ke_excess = std::max(max_ke_excess, e.kinetic - e.potential_released - e.inflow_kinetic);
         next_sample += scene.output.series_interval;
       }
       if (opt.snapshots && solver.time() >= next_snap - 1e-12) {
@@ -440,16 +441,25 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
   m["wall_time_s"] = sum.wall_seconds;
   m["particle_steps_per_s"] = sum.particle_steps_per_second;
   m["threads"] = omp_get_max_threads();
+  {
+    // What the cost model predicts from (docs/tradeoff.md): stored with the run so `runout calibrate` can refit.
+    const CostFeatures cf = cost_features(scene);
+    m["cost_features"] = {{"fluid", cf.fluid},           {"fluid_mean", cf.fluid_mean}, {"boundary", cf.boundary},
+                          {"neighbours", cf.neighbours}, {"passes", cf.passes},         {"duration_s", cf.duration},
+                          {"dt0_s", cf.dt0}};
+  }
   m["dt"] = {{"min_s", solver.min_dt_seen() < 1e299 ? solver.min_dt_seen() : 0.0}, {"last_s", solver.last_step().dt}};
   m["max_mach"] = solver.max_mach();
   if (solver.max_mach() > 0.1)
     m["warnings"].push_back("max Mach number " + std::to_string(solver.max_mach()) +
                             " exceeds 0.1: raise numerics.speed_of_sound");
-  const long double m0 = mb.total_initial(), m1 = mb.total_current(), mo = mb.total_outflow();
+  const long double m0 = mb.total_initial(), m1 = mb.total_current(), mo = mb.total_outflow(),
+                    mi = mb.total_inflow();
   m["mass"] = {{"initial_kg", static_cast<double>(m0)},
                {"final_kg", static_cast<double>(m1)},
                {"outflow_kg", static_cast<double>(mo)},
-               {"relative_error", m0 > 0 ? static_cast<double>((m1 + mo - m0) / m0) : 0.0}};
+               {"inflow_kg", static_cast<double>(mi)},
+               {"relative_error", m0 + mi > 0 ? static_cast<double>((m1 + mo - m0 - mi) / (m0 + mi)) : 0.0}};
   m["leaks"] = leaked;
   m["energy"] = {{"kinetic_final_j", e.kinetic},
                  {"potential_released_j", e.potential_released},

@@ -251,7 +251,7 @@ real box_volume_particles(const json& j, int D, real dp) {
 const std::vector<std::string> kTopKeys = {"name",   "dimensions", "dp",     "duration", "gravity", "materials",
                                            "numerics", "fluid",    "boundaries", "domain", "output", "limits",
                                            "description", "terrain", "release", "structures",
-                                           "protected_zones", "monitors", "fidelity"};
+                                           "protected_zones", "monitors", "fidelity", "inlets"};
 
 // A polyline or polygon: an array of [x, y] map coordinates.
 terrain::Polyline parse_polyline(const json& v, const std::string& field, size_t min_points) {
@@ -452,10 +452,13 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
     }
   }
 
-  // Fluid blocks.
-  if (!top.has("fluid") && !tmodel) throw SceneError("fluid", "missing (required: a non-empty array of fluid blocks)");
+  // Fluid blocks (none needed when inlets bring the flow in).
+  const bool has_inlets = top.has("inlets");
+  if (!top.has("fluid") && !tmodel && !has_inlets)
+    throw SceneError("fluid", "missing (required: a non-empty array of fluid blocks, or inlets)");
   const json& fluid = top.has("fluid") ? top.raw("fluid") : json::array();
-  if (!fluid.is_array() || (fluid.empty() && !tmodel)) throw SceneError("fluid", "must be a non-empty array of fluid blocks");
+  if (!fluid.is_array() || (fluid.empty() && !tmodel && !has_inlets))
+    throw SceneError("fluid", "must be a non-empty array of fluid blocks");
   real fluid_top = -1e300, fluid_bottom = 1e300;
   struct PendingFluid {
     Lattice<D> lattice;
@@ -492,6 +495,64 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
       fluid_bottom = std::min(fluid_bottom, p[D - 1] - 0.5 * dp);
     }
     pending.push_back({std::move(lat), material_index[release_material]});
+  }
+
+  // Inlets: velocity inlets across a vertical plane (engine InletSpec); the speed is given, or the discharge
+  // over the opening's area as the buffer fills it (whole particles: floor(size / dp) per axis).
+  real inlet_speed_max = 0;
+  if (has_inlets) {
+    if (tmodel) throw SceneError("inlets", "inlets are for scenes without terrain (flumes, channels) in this version");
+    const json& ins = top.raw("inlets");
+    if (!ins.is_array() || ins.empty()) throw SceneError("inlets", "must be a non-empty array of inlet objects");
+    std::vector<std::string> dirs = {"+x", "-x"};
+    if (D == 3) dirs.insert(dirs.end(), {"+y", "-y"});
+    for (size_t k = 0; k < ins.size(); ++k) {
+      const std::string path = "inlets[" + std::to_string(k) + "]";
+      Fields f(ins[k], path, {"name", "material", "direction", "at", "min", "max", "speed", "discharge"});
+      InletSpec<D> in;
+      in.name = f.string_or("name", "inlet" + std::to_string(k + 1));
+      const std::string mat = f.string("material");
+      if (!material_index.count(mat)) throw SceneError(f.at("material"), "no material named '" + mat + "'");
+      in.material = material_index[mat];
+      const std::string dir = f.string("direction", dirs);
+      in.axis = dir[1] == 'x' ? 0 : 1;
+      in.direction = dir[0] == '+' ? 1 : -1;
+      in.at = f.number("at", -1e7, 1e7);
+      const auto lo = f.vector("min", D - 1), hi = f.vector("max", D - 1);
+      real area = 1;
+      for (int a = 0; a < D - 1; ++a) {
+        in.lo[a] = lo[a];
+        in.hi[a] = hi[a];
+        const real n = std::floor((hi[a] - lo[a]) / dp + 1e-9);
+        if (n < 1)
+          throw SceneError(f.at("max"), "must exceed min by at least dp = " + fmt(dp) + " m on every axis (got " +
+                                            fmt(hi[a] - lo[a]) + " m)");
+        area *= n * dp;
+      }
+      if (f.has("speed") == f.has("discharge"))
+        throw SceneError(path, "give exactly one of speed (m/s) and discharge (m3/s; m2/s in 2D)");
+      const std::string key = f.has("speed") ? "speed" : "discharge";
+      const real scale = key == "speed" ? 1.0 : 1.0 / area;
+      const json& v = f.raw(key);
+      if (v.is_number()) {
+        in.speed.push_back({0.0, scale * Fields::check_number(v, f.at(key), 0.0, 1e6, false, false)});
+      } else if (v.is_array() && !v.empty()) {
+        for (size_t q = 0; q < v.size(); ++q) {
+          const std::string at = f.at(key) + "[" + std::to_string(q) + "]";
+          if (!v[q].is_array() || v[q].size() != 2)
+            throw SceneError(at, "must be a [t (s), value] pair");
+          const real t = Fields::check_number(v[q][0], at + "[0]", 0.0, 1e7, false, false);
+          if (q > 0 && !(t > in.speed.back()[0])) throw SceneError(at + "[0]", "times must increase");
+          in.speed.push_back({t, scale * Fields::check_number(v[q][1], at + "[1]", 0.0, 1e6, false, false)});
+        }
+      } else {
+        throw SceneError(f.at(key), "must be a number >= 0 or an array of [t, value] pairs (a hydrograph)");
+      }
+      for (const auto& sp : in.speed) inlet_speed_max = std::max(inlet_speed_max, sp[1]);
+      fluid_top = std::max(fluid_top, in.hi[D - 2]);
+      fluid_bottom = std::min(fluid_bottom, in.lo[D - 2]);
+      setup.inlets.push_back(std::move(in));
+    }
   }
 
   // Boundaries.
@@ -652,6 +713,7 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
   real speed_scale = std::sqrt(std::max(g_mag, 1e-3) * depth_scale);
   if (tmodel && !num.has("depth_scale"))
     speed_scale = std::max(speed_scale, std::sqrt(2.0 * std::max(g_mag, 1e-3) * tmodel->max_energy_height));
+  speed_scale = std::max(speed_scale, inlet_speed_max);  // inflow faster than its sqrt(g H)
   cfg.speed_of_sound = num.has("speed_of_sound") ? num.number("speed_of_sound", 0.0, 1e5, true) : beta * speed_scale;
   if (num.has("viscosity_cap")) {
     const json& cap = num.raw("viscosity_cap");
@@ -665,9 +727,15 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
   cfg.viscosity_cap_factor = num.number_or("viscosity_cap_factor", 1.0, 0.0, 1e6, true);
   cfg.shear_rate_floor = num.number_or("shear_rate_floor", 1e-6, 0.0, 1e3, true);
   cfg.min_dt = num.number_or("min_dt", 1e-8, 0.0, 1.0, true);
-  cfg.boundary_pressure = num.string_or("boundary_pressure", "dbc", {"dbc", "extrapolated"}) == "extrapolated"
+  // Inlets need walls without memory: a DBC wall particle under a buffer that moves over it gains density
+  // from the one-sided inflow at the plane and never loses it (its density is floored at rho0), until it
+  // throws the new flow off the bed (measured: tests/engine/inlet_test.cpp detaches at t < 0.2 s with dbc).
+  const std::string bp_default = setup.inlets.empty() ? "dbc" : "extrapolated";
+  cfg.boundary_pressure = num.string_or("boundary_pressure", bp_default, {"dbc", "extrapolated"}) == "extrapolated"
                               ? BoundaryPressure::extrapolated
                               : BoundaryPressure::dbc;
+  if (!setup.inlets.empty() && cfg.boundary_pressure == BoundaryPressure::dbc)
+    throw SceneError("numerics.boundary_pressure", "must be 'extrapolated' in a scene with inlets (accepted: extrapolated)");
   cfg.boundary_density = num.number_or("boundary_density", setup.materials[0].density, 0.0, 1e5, true);
 
   // Fluid particles, with a hydrostatic initial density (less start-up shock than rho0 everywhere).
@@ -697,6 +765,14 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
   for (size_t i = 0; i < setup.boundary.size(); ++i) {
     lo = lo.cwiseMin(setup.boundary.position(i));
     hi = hi.cwiseMax(setup.boundary.position(i));
+  }
+  for (const auto& in : setup.inlets) {
+    // The buffer behind the plane is part of the scene.
+    const real back = in.at - in.direction * inlet_buffer_layers(cfg) * dp;
+    lo[in.axis] = std::min(lo[in.axis], std::min(back, in.at));
+    hi[in.axis] = std::max(hi[in.axis], std::max(back, in.at));
+    lo[D - 1] = std::min(lo[D - 1], in.lo[D - 2]);
+    hi[D - 1] = std::max(hi[D - 1], in.hi[D - 2]);
   }
   const real margin = 4.0 * cfg.smoothing_length;
   for (int d = 0; d < D; ++d) {

@@ -28,25 +28,26 @@ std::map<std::string, std::string> read_series(const fs::path& run_dir) {
   return out;
 }
 
-StoredRun run_and_store(RunStore& store, const std::string& resolved_json, const fs::path& base_dir,
-                        const StoreRunOptions& options) {
-  const Manifest manifest = make_manifest(resolved_json, base_dir, options.fidelity);
+std::optional<StoredRun> find_completed_run(const RunStore& store, const std::string& manifest_hash) {
+  const auto id = store.find_run(manifest_hash);
+  if (!id) return std::nullopt;
+  const auto row = store.get_run(*id);
+  if (!row || row->status != "completed") return std::nullopt;
   StoredRun out;
-  if (const auto id = store.find_run(manifest.hash)) {
-    const auto row = store.get_run(*id);
-    if (row && row->status == "completed") {
-      out.run_id = *id;
-      out.status = row->status;
-      out.reused = true;
-      return out;
-    }
-  }
+  out.run_id = *id;
+  out.status = row->status;
+  out.reused = true;
+  return out;
+}
+
+RunStore::RunRecord execute_run(const std::string& resolved_json, const Manifest& manifest, const fs::path& base_dir,
+                                const StoreRunOptions& options, StoredRun& result) {
   const Scene scene = parse_scene(resolved_json, base_dir);
   fs::remove_all(options.run.out_dir);  // a stale or half-written directory from an interrupted run
   const RunSummary s = run_scene(scene, options.run);
-  out.status = s.status;
-  out.error = s.error;
-  out.wall_seconds = s.wall_seconds;
+  result.status = s.status;
+  result.error = s.error;
+  result.wall_seconds = s.wall_seconds;
   RunStore::RunRecord r;
   r.manifest_hash = manifest.hash;
   r.manifest_json = manifest.json;
@@ -57,6 +58,15 @@ StoredRun run_and_store(RunStore& store, const std::string& resolved_json, const
   r.status = s.status;
   r.metrics_json = s.metrics_json;
   r.series_csv = read_series(options.run.out_dir);
+  return r;
+}
+
+StoredRun run_and_store(RunStore& store, const std::string& resolved_json, const fs::path& base_dir,
+                        const StoreRunOptions& options) {
+  const Manifest manifest = make_manifest(resolved_json, base_dir, options.fidelity);
+  if (auto stored = find_completed_run(store, manifest.hash)) return *stored;
+  StoredRun out;
+  const RunStore::RunRecord r = execute_run(resolved_json, manifest, base_dir, options, out);
   out.run_id = store.put_run(r);
   return out;
 }

@@ -227,7 +227,8 @@ std::pair<Job, bool> JobQueue::submit(const JobSpec& spec, const std::optional<s
 
 std::pair<SweepRow, bool> JobQueue::submit_sweep(const std::string& name, std::optional<int64_t> scene_id,
                                                  const std::string& fidelity, const std::vector<JobSpec>& jobs,
-                                                 const std::optional<std::string>& key) {
+                                                 const std::optional<std::string>& key,
+                                                 const std::optional<std::string>& launched_runs_dir) {
   Conn& c = impl_->writer;
   std::lock_guard lock(c.mutex);
   Transaction tx(c);
@@ -245,7 +246,16 @@ std::pair<SweepRow, bool> JobQueue::submit_sweep(const std::string& name, std::o
   ins.bind(1, name).bind(2, scene_id).bind(3, fidelity).bind(4, key);
   ins.step();
   const int64_t sweep_id = sqlite3_last_insert_rowid(c.db);
-  for (const auto& j : jobs) insert_job(c, j, sweep_id, std::nullopt);
+  for (const auto& j : jobs) {
+    const int64_t id = insert_job(c, j, sweep_id, std::nullopt);
+    if (launched_runs_dir) {
+      Stmt run(c, std::string("UPDATE jobs SET status = 'running', attempts = 1, out_dir = ?, started_at = ") + kNow +
+                      " WHERE id = ?");
+      const auto out = std::filesystem::path(*launched_runs_dir) / ("sweep-" + std::to_string(sweep_id)) / "runs";
+      run.bind(1, (out / j.sweep / j.variant).string()).bind(2, id);
+      run.step();
+    }
+  }
   Stmt s(c, std::string("SELECT ") + kSweepColumns + " FROM service_sweeps WHERE id = ?");
   s.bind(1, sweep_id);
   s.step();

@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "runout/scenarios/cost_model.hpp"
+
 namespace runout::service {
 
 // What a new job is: the resolved scene (JSON text) and how it was made.
@@ -25,6 +27,10 @@ struct JobSpec {
   std::string sweep, variant;        // sweep name (runs.sweep in the run store) and variant name
   int64_t particles = 0;             // particle count of the resolved scene (fluid + boundary)
   double duration = 0;               // simulated seconds
+  // From the built scene, for POST /estimate (the cost model, docs/tradeoff.md); not stored with the job.
+  int64_t fluid_particles = 0, boundary_particles = 0;
+  int dimensions = 0;
+  CostFeatures cost;
 };
 
 struct Job {
@@ -76,9 +82,13 @@ class JobQueue {
   // A new queued job, or, when `key` names an existing job, that job (second = false) and nothing written.
   std::pair<Job, bool> submit(const JobSpec& spec, const std::optional<std::string>& key);
   // A sweep and its jobs in one transaction; with an existing key, the original sweep (second = false).
+  // With `launched_runs_dir` (a sweep handed to an MPI launcher, sweep_launcher.hpp) the jobs start `running`
+  // (attempt 1, out_dir DIR/sweep-<id>/runs/<sweep>/<variant>, where `runout sweep --out DIR/sweep-<id>/runs`
+  // writes them), in the same transaction, so that no in-process worker claims them.
   std::pair<SweepRow, bool> submit_sweep(const std::string& name, std::optional<int64_t> scene_id,
                                          const std::string& fidelity, const std::vector<JobSpec>& jobs,
-                                         const std::optional<std::string>& key);
+                                         const std::optional<std::string>& key,
+                                         const std::optional<std::string>& launched_runs_dir = std::nullopt);
 
   std::optional<Job> get(int64_t id) const;
   // Without scene_json, by id; status and sweep filter when given.

@@ -17,8 +17,10 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "mpi_sweep.hpp"
 #include "progress.hpp"
 #include "server.hpp"
+#include "tradeoff_cli.hpp"
 #include "runout/scenarios/run.hpp"
 #include "runout/scenarios/scene.hpp"
 #include "runout/scenarios/store.hpp"
@@ -194,7 +196,36 @@ int cmd_compare(const std::string& db_file, const std::string& sweep, const std:
 }
 
 int cmd_sweep(const std::string& sweep_path, const std::string& fidelity, double dp, int jobs, int threads,
-              const std::string& db_file, const std::string& out_root, bool compare) {
+              const std::string& db_file, const std::string& out_root, bool compare, double heartbeat_timeout) {
+  // Under mpirun/srun the sweep's runs are spread over the ranks (mpi_sweep.hpp, docs/cluster.md); MPI is
+  // initialised only then, so a plain `runout sweep` is unchanged and starts no MPI singleton.
+#ifdef RUNOUT_HAVE_MPI
+  std::unique_ptr<runout::cluster::MpiWorld> mpi;
+  const runout::cluster::MpiSweepOptions mpi_opt{heartbeat_timeout, threads};
+  if (runout::cluster::launched_by_mpi()) {
+    mpi = std::make_unique<runout::cluster::MpiWorld>();
+    if (mpi->rank() > 0) {  // a worker: runs what rank 0 hands out; never opens the store
+      std::signal(SIGINT, on_signal);
+      std::signal(SIGTERM, on_signal);
+      return mpi->finish(runout::cluster::run_worker(*mpi, mpi_opt, &g_stop));
+    }
+  }
+  // Rank 0 leaving before any run was handed out lets the workers go first.
+  auto leave = [&](int code) {
+    if (!mpi) return code;
+    if (mpi->size() > 1) runout::cluster::release_workers(*mpi);
+    return mpi->finish(code);
+  };
+#else
+  if (runout::cluster::launcher_world_size() > 1) {
+    spdlog::error("sweep: this runout was built without MPI, so `mpirun -np {}` would run the whole sweep {} times; "
+                  "run it without mpirun, or build with Open MPI (libopenmpi-dev, docs/cluster.md)",
+                  runout::cluster::launcher_world_size(), runout::cluster::launcher_world_size());
+    return 2;
+  }
+  (void)heartbeat_timeout;
+  auto leave = [](int code) { return code; };
+#endif
   runout::Sweep sweep;
   runout::SweepOptions opt;
   try {
@@ -209,14 +240,14 @@ int cmd_sweep(const std::string& sweep_path, const std::string& fidelity, double
         (void)runout::parse_scene(runout::resolve_variant(sweep.base_json, v, opt.fidelity), sweep.base_path.parent_path());
   } catch (const runout::SceneError& e) {
     spdlog::error("sweep refused: {}", e.what());
-    return 2;
+    return leave(2);
   }
   std::unique_ptr<runout::RunStore> store;
   try {
     store = std::make_unique<runout::RunStore>(db_file);
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
-    return 2;
+    return leave(2);
   }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
@@ -249,19 +280,41 @@ int cmd_sweep(const std::string& sweep_path, const std::string& fidelity, double
       live[e.index] = {};
     }
   };
-  const auto result = runout::run_sweep(*store, sweep, opt);
+  runout::SweepResult result;
+#ifdef RUNOUT_HAVE_MPI
+  if (mpi && mpi->size() > 1) {
+    opt.jobs = mpi->size() - 1;  // for the ETA: one run at a time per worker rank
+    result = runout::cluster::coordinate_sweep(*mpi, *store, sweep, opt, mpi_opt);
+  } else {
+    result = runout::run_sweep(*store, sweep, opt);  // -np 1: rank 0 runs the sweep itself
+  }
+#else
+  result = runout::run_sweep(*store, sweep, opt);
+#endif
   size_t completed = 0;
   for (const auto& r : result.runs) completed += r.status == "completed";
   spdlog::info("sweep {}: {} of {} runs completed; stored in {}", sweep.name, completed, result.runs.size(), db_file);
+  store.reset();  // closed (committed) before MPI ends: a lost worker makes rank 0 leave without MPI_Finalize
+  int code = completed == result.runs.size() ? 0 : 3;
   if (g_stop.load()) {
     spdlog::warn("stopped: finished runs are stored; run the same command again to resume");
-    return 130;
-  }
-  if (compare && completed > 0) {
+    code = 130;
+  } else if (compare && completed > 0) {
     std::printf("\n");
     cmd_compare(db_file, sweep.name, "", {}, "", false);
   }
-  return completed == result.runs.size() ? 0 : 3;
+#ifdef RUNOUT_HAVE_MPI
+  if (mpi) return mpi->finish(code);
+#endif
+  return code;
+}
+
+// The build copies the page (web/, with uPlot) next to the binary: BUILD/webroot beside BUILD/runout.
+std::filesystem::path default_web_root(const char* argv0) {
+  std::error_code ec;
+  std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) exe = std::filesystem::absolute(argv0, ec);
+  return exe.parent_path() / "webroot";
 }
 
 // `runout serve`: the HTTP service until SIGINT/SIGTERM (running jobs go back to the queue).
@@ -299,6 +352,10 @@ int cmd_serve(runout::service::ServeOptions opt, const std::string& token_file, 
   // The token itself is never printed.
   std::printf("runout serve: listening on http://%s:%d/api/v1 (db %s, %d workers, writes %s)\n", opt.host.c_str(), port,
               opt.db.c_str(), opt.workers, opt.token.empty() ? "open" : "need the bearer token");
+  if (std::filesystem::is_regular_file(opt.web_root / "index.html"))
+    std::printf("runout serve: web page at http://%s:%d/ (from %s)\n", opt.host.c_str(), port, opt.web_root.c_str());
+  else
+    std::printf("runout serve: no web page (%s has no index.html; --web-root DIR)\n", opt.web_root.c_str());
   std::fflush(stdout);
   std::thread watcher([&] {
     while (!g_stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -352,6 +409,12 @@ int main(int argc, char** argv) {
   sweep->add_option("--db", db_file, "Run store (SQLite)")->capture_default_str();
   sweep->add_option("--out,-o", sweep_out, "Outputs go to OUT/<sweep>/<variant>")->capture_default_str();
   sweep->add_flag("--no-compare", no_compare, "Do not print the comparison at the end");
+  double heartbeat_timeout = 60;
+  sweep->add_option("--heartbeat-timeout", heartbeat_timeout,
+                    "Under mpirun/srun: seconds without a word from a worker rank before its run goes to another "
+                    "(docs/cluster.md)")
+      ->check(CLI::Range(1.0, 86400.0))
+      ->capture_default_str();
 
   std::string compare_sweep, baseline, filter;
   std::vector<int64_t> compare_ids;
@@ -389,16 +452,50 @@ int main(int argc, char** argv) {
   serve->add_option("--scene-dir", scene_dir, "Relative file names in submitted scenes (terrain.dem) resolve here")
       ->capture_default_str();
   serve->add_flag("--verbose,-v", verbose, "Log every request (method, path, status, time)");
+  std::string web_root;
+  serve->add_option("--web-root", web_root,
+                    "The web page's files, served at / and /web/ (default: webroot/ next to this binary, where the "
+                    "build puts it)");
+
+  runout::service::TradeoffCommand tradeoff_cmd;
+  auto* tradeoff = app.add_subcommand(
+      "tradeoff", "Run a scene at a ladder of resolutions: cost and deviation of every metric from the finest");
+  tradeoff->add_option("file", tradeoff_cmd.file, "Scene or sweep file (JSON)")->required();
+  tradeoff->add_option("--variant", tradeoff_cmd.variant, "The sweep's layout to run (default: its first)");
+  tradeoff->add_option("--levels", tradeoff_cmd.levels, "draft, standard, fine or dp values [m] (default: all three presets)")
+      ->delimiter(',');
+  tradeoff->add_option("--option", tradeoff_cmd.options,
+                       "A numerics choice run at one rung, PATH=VALUE (numerics.kernel=cubic); repeatable");
+  tradeoff->add_option("--option-level", tradeoff_cmd.option_level, "The rung the options run at (default: the coarsest)");
+  tradeoff->add_option("--threads,-j", tradeoff_cmd.threads, "OpenMP threads (default: all cores)")->check(CLI::Range(0, 1024));
+  tradeoff->add_option("--out,-o", tradeoff_cmd.out_dir, "levels.csv, metrics.csv, tradeoff.svg and each level's outputs "
+                                                         "(default runs/tradeoff/<name>)");
+  tradeoff->add_option("--db", tradeoff_cmd.db, "Run store (SQLite); stored levels are reused")->capture_default_str();
+
+  runout::service::CalibrateCommand calibrate_cmd;
+  auto* calibrate = app.add_subcommand("calibrate", "Fit the cost model to the completed runs of a store; print "
+                                                    "predicted against measured run times");
+  calibrate->add_option("--db", calibrate_cmd.dbs, "Run store (SQLite); repeat to fit the runs of several")
+      ->capture_default_str();
+  calibrate->add_option("--sweep", calibrate_cmd.sweep_prefix, "Only runs whose sweep name starts with this");
+  calibrate->add_option("--json", calibrate_cmd.json_out, "Write the fitted coefficients to this file");
 
   CLI11_PARSE(app, argc, argv);
+  if (tradeoff->parsed()) {
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+    return runout::service::run_tradeoff_command(tradeoff_cmd, &g_stop);
+  }
+  if (calibrate->parsed()) return runout::service::run_calibrate_command(calibrate_cmd);
   if (serve->parsed()) {
     serve_opt.db = serve_db;
     serve_opt.runs_dir = serve_runs;
     serve_opt.scene_dir = scene_dir;
+    serve_opt.web_root = !web_root.empty() ? std::filesystem::path(web_root) : default_web_root(argv[0]);
     return cmd_serve(serve_opt, token_file, verbose);
   }
   if (run->parsed()) return cmd_run(scene_path, out_dir, snapshots, threads, quiet, no_db ? "" : db_file);
-  if (sweep->parsed()) return cmd_sweep(sweep_path, fidelity, dp, jobs, threads, db_file, sweep_out, !no_compare);
+  if (sweep->parsed()) return cmd_sweep(sweep_path, fidelity, dp, jobs, threads, db_file, sweep_out, !no_compare, heartbeat_timeout);
   if (compare->parsed()) return cmd_compare(db_file, compare_sweep, baseline, compare_ids, filter, all_rows);
   return 0;
 }

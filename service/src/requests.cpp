@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "runout/scenarios/cost_model.hpp"
 #include "runout/scenarios/scene.hpp"
 #include "runout/scenarios/sweep.hpp"
 #include "runout/terrain/raster.hpp"
@@ -184,13 +185,22 @@ std::optional<std::string> parse_key(const json& body) {
   return k;
 }
 
-int64_t count_particles(const Scene& s) {
-  return std::visit([](const auto& setup) { return static_cast<int64_t>(setup.fluid.size() + setup.boundary.size()); },
-                    s.setup);
+// Particle counts and what the cost model predicts from, from the built scene.
+void record_built_scene(const Scene& s, JobSpec& spec) {
+  std::visit(
+      [&](const auto& setup) {
+        spec.fluid_particles = static_cast<int64_t>(setup.fluid.size());
+        spec.boundary_particles = static_cast<int64_t>(setup.boundary.size());
+      },
+      s.setup);
+  spec.cost = cost_features(s);
+  spec.particles = spec.fluid_particles + spec.boundary_particles;
+  spec.dimensions = s.dimensions;
 }
 
-// Validates a resolved scene with the scene validator, under the particle budget. Returns the particle count.
-int64_t validate_resolved(const std::string& resolved, const std::string& path, const Limits& limits) {
+// Validates a resolved scene with the scene validator, under the particle budget; the built scene's particle
+// counts and numerics go into `spec`.
+void validate_resolved(const std::string& resolved, const std::string& path, const Limits& limits, JobSpec& spec) {
   json j = json::parse(resolved);
   long own = 5'000'000;
   bool injectable = !j.contains("limits");
@@ -207,7 +217,7 @@ int64_t validate_resolved(const std::string& resolved, const std::string& path, 
   if (budget_binds) j["limits"]["max_particles"] = limits.particle_budget;  // the validator checks it before building
   try {
     const Scene s = parse_scene(j.dump(), limits.scene_dir);
-    return count_particles(s);
+    record_built_scene(s, spec);
   } catch (const SceneError& e) {
     std::string msg = std::string(e.what()).substr(std::min(e.field.size() + 2, std::string(e.what()).size()));
     const std::string lim = "limits.max_particles = " + std::to_string(limits.particle_budget);
@@ -244,7 +254,7 @@ JobSpec make_job(const json& base, const std::string& path, const std::optional<
     throw ApiError(422, path, std::string("cannot apply the layout and fidelity: ") + e.what());
   }
   JobSpec spec;
-  spec.particles = validate_resolved(resolved, path, limits);
+  validate_resolved(resolved, path, limits, spec);
   const json r = json::parse(resolved);
   spec.scene_json = resolved;
   spec.scene_name = r.value("name", std::string("scene"));
@@ -424,6 +434,8 @@ NewSweep parse_sweep_request(const std::string& body, const Limits& limits, cons
     spec.sweep = out.name;
     out.jobs.push_back(std::move(spec));
   }
+  out.base_json = b.scene.dump();
+  out.variants = variants;
   return out;
 }
 

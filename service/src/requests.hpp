@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "jobs.hpp"
+#include "runout/scenarios/sweep.hpp"
 
 namespace runout::service {
 
@@ -36,6 +37,10 @@ struct NewSweep {
   std::optional<int64_t> scene_id;
   std::string fidelity;
   std::vector<JobSpec> jobs;
+  // What a sweep file needs (a sweep handed to an MPI launcher, sweep_launcher.hpp): the base scene as the
+  // jobs were resolved from it, and the layouts, one per job in order.
+  std::string base_json;
+  std::vector<SweepVariant> variants;
 };
 
 // Bodies are JSON text; malformed JSON is a 400, everything else that is wrong a 422.

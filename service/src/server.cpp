@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
+#include <cstdlib>
 #include <cstdio>
 #include <fstream>
 #include <functional>
@@ -23,9 +24,13 @@
 
 // The project's headers (Eigen) before httplib.h: httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen.
 #include "jobs.hpp"
+#include "runout/scenarios/cost_model.hpp"
 #include "requests.hpp"
 #include "runout/scenarios/store.hpp"
 #include "runout/scenarios/study.hpp"
+#include "runout/terrain/raster.hpp"
+#include "sweep_launcher.hpp"
+#include "web_files.hpp"
 
 #include <httplib.h>
 #include <nlohmann/json.hpp>
@@ -152,6 +157,7 @@ struct Server::Impl {
   std::unique_ptr<JobQueue> queue;
   httplib::Server http;
   std::vector<Route> routes;
+  std::unique_ptr<WebRoot> web;
   int lock_fd = -1;
   int port = 0;
 
@@ -167,6 +173,7 @@ struct Server::Impl {
   std::map<int64_t, std::shared_ptr<Running>> running;  // job id -> its stop flags (under mutex)
   std::atomic<int> busy{0};
   int threads_per_job = 1;
+  std::unique_ptr<SweepLauncher> launcher;  // RUNOUT_SWEEP_LAUNCHER: sweeps go to an MPI launch command
 
   void add(const std::string& pattern, const std::string& method, Handler h) {
     const std::string full = "^" + kPrefix + pattern + "$";
@@ -237,6 +244,7 @@ struct Server::Impl {
   }
 
   void setup_routes();
+  void serve_web(const httplib::Request& req, httplib::Response& res) const;
   void dispatch(const httplib::Request& req, httplib::Response& res);
   void worker_loop(int index);
   void run_job(const Job& job);
@@ -352,8 +360,20 @@ void Server::Impl::setup_routes() {
     const auto hkey = header_key(req);
     std::optional<std::string> bkey;
     const NewSweep s = parse_sweep_request(req.body, limits, *queue, bkey);
-    auto [row, created] = queue->submit_sweep(s.name, s.scene_id, s.fidelity, s.jobs, pick_key(hkey, bkey));
-    if (created) wake.notify_all();
+    std::optional<std::string> launched;  // handed to the operator's MPI launch command (sweep_launcher.hpp)
+    if (launcher) launched = fs::absolute(opt.runs_dir / "service").string();
+    auto [row, created] = queue->submit_sweep(s.name, s.scene_id, s.fidelity, s.jobs, pick_key(hkey, bkey), launched);
+    if (created && launcher) {
+      try {
+        launcher->launch({row.id, s.name, s.base_json, s.variants, s.fidelity, s.jobs.front().dp});
+      } catch (const std::exception& e) {  // its jobs must not stay `running` for ever
+        spdlog::error("sweep {}: could not launch: {}", row.id, e.what());
+        for (const auto& j : queue->list(std::nullopt, row.id, 10000, 0))
+          queue->finish(j.id, "failed", std::nullopt, false, std::string("could not launch the sweep: ") + e.what());
+      }
+    } else if (created) {
+      wake.notify_all();
+    }
     json jobs = json::array();
     for (const auto& j : queue->list(std::nullopt, row.id, 10000, 0)) jobs.push_back(job_json(j, false));
     res.set_header("Location", kPrefix + "/jobs?sweep=" + std::to_string(row.id));
@@ -364,6 +384,51 @@ void Server::Impl::setup_routes() {
                {"fidelity", row.fidelity},
                {"created_at", row.created_at},
                {"jobs", jobs}});
+  });
+
+  // The estimate of a job before it is submitted: the body of POST /jobs, resolved and built the same way
+  // (so the particle counts are the job's), and the run time from the calibrated cost model
+  // (runout/scenarios/cost_model.hpp, docs/tradeoff.md). Writes nothing.
+  add("/estimate", "POST", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
+    only_params(req, {});
+    check_json_body(req);
+    (void)header_key(req);  // checked as for POST /jobs, then unused
+    std::optional<std::string> bkey;
+    const JobSpec spec = parse_job_request(req.body, limits, *queue, bkey);
+    const CostModel model = CostModel::calibrated();
+    const int threads = std::max(1, threads_per_job);
+    const CostPrediction p = model.predict(spec.cost, threads);
+    const CostCoefficients& k = spec.cost.dimensions == 2 ? model.two_d : model.three_d;
+    const json resolved = json::parse(spec.scene_json);
+    send_json(res, 200,
+              {{"scene_name", spec.scene_name},
+               {"variant", spec.variant},
+               {"fidelity", spec.fidelity},
+               {"dp", resolved.contains("dp") ? resolved["dp"] : json(nullptr)},
+               {"dimensions", spec.dimensions},
+               {"particles",
+                {{"fluid", spec.fluid_particles}, {"boundary", spec.boundary_particles}, {"total", spec.particles}}},
+               {"particle_budget", opt.particle_budget},
+               {"steps_estimate", static_cast<int64_t>(p.steps)},
+               {"seconds_estimate", p.seconds},
+               {"model",
+                {{"formula", "steps = ceil(step_ratio * duration / dt0); seconds = steps * (a_fluid * fluid_mean * "
+                             "neighbours * passes + b_boundary * boundary + c_step) / (1 + parallel_efficiency * "
+                             "(threads - 1))"},
+                 {"duration_s", spec.cost.duration},
+                 {"dt_s", spec.cost.dt0},
+                 {"fluid_mean", spec.cost.fluid_mean},
+                 {"neighbours", spec.cost.neighbours},
+                 {"passes", spec.cost.passes},
+                 {"boundary", spec.cost.boundary},
+                 {"step_ratio", k.step_ratio},
+                 {"a_fluid_s", k.a_fluid},
+                 {"b_boundary_s", k.b_boundary},
+                 {"c_step_s", k.c_step},
+                 {"threads", threads},
+                 {"parallel_efficiency", model.parallel_efficiency},
+                 {"seconds_per_step", p.seconds_per_step},
+                 {"note", "calibrated on measured runs of the shipped scenes; how well it predicts: docs/tradeoff.md"}}}});
   });
 
   // Results.
@@ -422,6 +487,62 @@ void Server::Impl::setup_routes() {
         only_params(req, {});
         raster(m[1].str(), "max_depth.png", res, "image/png");
       });
+  // Where map.png lies on the ground, and what to draw over it: the raster's extent and CRS (read from
+  // max_depth.tif, whose cells the PNG enlarges by a whole factor), and the map geometry of the job's
+  // structures, protected zones, release and cross-sections from its resolved scene (working CRS, metres).
+  add(R"(/jobs/(\d{1,18})/map\.json)", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+    only_params(req, {});
+    const Job j = require_job(m[1].str());
+    const int64_t run = run_of(j);
+    const fs::path tif = out_dir_of(j) / "rasters" / "max_depth.tif";
+    if (!fs::is_regular_file(tif))
+      throw ApiError(404, "id", "job " + m[1].str() + " has no map (maps exist for terrain scenes)");
+    terrain::Grid g;
+    try {
+      g = terrain::load_dem(tif.string());
+    } catch (const std::exception& e) {
+      throw ApiError(500, "id", "cannot read the extent of job " + m[1].str() + "'s max_depth.tif: " + e.what());
+    }
+    const json scene = json::parse(j.scene_json, nullptr, false);
+    auto ring = [](const json& pts, bool close) {
+      json c = json::array();
+      if (!pts.is_array()) return c;
+      for (const auto& p : pts)
+        if (p.is_array() && p.size() >= 2 && p[0].is_number() && p[1].is_number()) c.push_back({p[0], p[1]});
+      if (close && c.size() > 2 && c.front() != c.back()) c.push_back(c.front());
+      return c;
+    };
+    auto polygon = [&](const json& pts) { return json{{"type", "Polygon"}, {"coordinates", json::array({ring(pts, true)})}}; };
+    auto line = [&](const json& pts) { return json{{"type", "LineString"}, {"coordinates", ring(pts, false)}}; };
+    auto list = [&](const char* key) { return scene.is_object() && scene.contains(key) && scene[key].is_array() ? scene[key] : json::array(); };
+    json structures = json::array(), zones = json::array(), sections = json::array();
+    for (const auto& st : list("structures")) {
+      json geom = st.contains("polygon") ? polygon(st["polygon"]) : line(st.value("axis", json::array()));
+      structures.push_back({{"name", st.value("name", "")}, {"type", st.value("type", "")}, {"geometry", geom}});
+    }
+    for (const auto& z : list("protected_zones"))
+      zones.push_back({{"name", z.value("name", "")}, {"geometry", polygon(z.value("polygon", json::array()))}});
+    for (const auto& mon : list("monitors"))
+      if (mon.value("type", "") == "section" && mon.contains("line"))
+        sections.push_back({{"name", mon.value("name", "")}, {"series", "section_" + mon.value("name", "")},
+                            {"geometry", line(mon["line"])}});
+    json release = nullptr;
+    if (scene.is_object() && scene.contains("release") && scene["release"].is_object() && scene["release"].contains("polygon"))
+      release = {{"geometry", polygon(scene["release"]["polygon"])}};
+    const std::string self = kPrefix + "/jobs/" + m[1].str();
+    send_json(res, 200,
+              {{"job", j.id},
+               {"run_id", run},
+               {"image", self + "/map.png"},
+               {"crs", terrain::crs_name(g.crs_wkt)},
+               {"raster",
+                {{"nx", g.nx}, {"ny", g.ny}, {"dx", g.dx}, {"dy", g.dy},
+                 {"west", g.x0}, {"north", g.y0}, {"east", g.x1()}, {"south", g.y1()}}},
+               {"structures", structures},
+               {"protected_zones", zones},
+               {"release", release},
+               {"sections", sections}});
+  });
   add("/compare", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
     only_params(req, {"jobs", "baseline"});
     if (!req.has_param("jobs")) throw ApiError(400, "jobs", "missing (required: 1 to 50 job ids separated by commas)");
@@ -467,10 +588,37 @@ void Server::Impl::setup_routes() {
   });
 }
 
+void Server::Impl::serve_web(const httplib::Request& req, httplib::Response& res) const {
+  const std::string allow = "GET, HEAD, OPTIONS";
+  if (req.method == "OPTIONS") {
+    res.status = 204;
+    res.set_header("Allow", allow);
+    return;
+  }
+  if (req.method != "GET" && req.method != "HEAD") {
+    res.set_header("Allow", allow);
+    throw ApiError(405, "method", req.method + " is not allowed here (accepted: " + allow + ")");
+  }
+  WebFile f = web->get(req.path);
+  res.status = 200;
+  // The page talks only to this server and loads nothing from elsewhere.
+  res.set_header("Content-Security-Policy",
+                 "default-src 'self'; img-src 'self' data: blob:; style-src 'self' 'unsafe-inline'; "
+                 "connect-src 'self'; object-src 'none'; base-uri 'none'; frame-ancestors 'none'");
+  res.set_header("X-Content-Type-Options", "nosniff");
+  res.set_header("Cache-Control", "no-cache");
+  res.set_content(std::move(f.body), f.content_type);
+}
+
 void Server::Impl::dispatch(const httplib::Request& req, httplib::Response& res) {
   const auto t0 = Clock::now();
   const std::string method = req.method == "HEAD" ? "GET" : req.method;
   try {
+    if (web->serves(req.path)) {
+      serve_web(req, res);
+      spdlog::debug("{} {} {}", req.method, req.path, res.status);
+      return;
+    }
     const Route* route = nullptr;
     std::smatch m;
     for (const auto& r : routes)
@@ -627,6 +775,19 @@ Server::Server(ServeOptions options) : impl_(std::make_unique<Impl>()) {
   }
   m.store = std::make_unique<RunStore>(m.opt.db);  // creates or migrates the file
   m.queue = std::make_unique<JobQueue>(m.opt.db);
+  m.web = std::make_unique<WebRoot>(m.opt.web_root);
+  // Sweeps on a cluster (docs/service.md): the operator's launch command, from the environment.
+  if (const char* t = std::getenv("RUNOUT_SWEEP_LAUNCHER"); t && *t) {
+    int ranks = 2;
+    if (const char* r = std::getenv("RUNOUT_SWEEP_RANKS"); r && *r) {
+      const std::string text = r;
+      if (text.size() > 9 || text.find_first_not_of("0123456789") != std::string::npos)
+        throw std::invalid_argument("RUNOUT_SWEEP_RANKS: must be an integer in [1, 100000] (got '" + text.substr(0, 20) + "')");
+      ranks = std::stoi(text);
+    }
+    m.launcher = std::make_unique<SweepLauncher>(t, ranks, m.opt.db, m.opt.runs_dir, m.opt.scene_dir, *m.queue);
+    spdlog::info("sweeps go to the launcher: {}", t);
+  }
   const int workers = std::max(0, m.opt.workers);
   m.threads_per_job = m.opt.threads_per_job > 0 ? m.opt.threads_per_job
                                                 : std::max(1, omp_get_num_procs() / std::max(1, workers));
@@ -692,6 +853,7 @@ void Server::stop() {
   m.http.stop();
   for (auto& t : m.workers) t.join();
   m.workers.clear();
+  if (m.launcher) m.launcher->stop();  // launched sweeps: SIGTERM, unfinished jobs back in the queue
 }
 
 }  // namespace runout::service

@@ -23,6 +23,8 @@ struct ServeOptions {
   size_t max_body = 1 << 20;     // bytes
   int64_t particle_budget = 2'000'000;
   int http_threads = 16;         // request handler threads
+  // The web page's files (web/ as built: docs/web.md), served at / and /web/...; empty or missing: no page.
+  std::filesystem::path web_root;
 };
 
 class Server {

@@ -336,6 +336,25 @@ const std::vector<Case> kPending = {
     edit("PeriodicVerticalAxis", set(P("/domain"), {{"periodic", {false, true}}, {"min", {-1, -1}}, {"max", {1, 1}}}),
          "domain.periodic", {"vertical"}),
     edit("DescriptionAsNumber", set(P("/description"), 5), "description", {"string"}),
+    // Inlets.
+    edit("InletVerticalDirection", set(P("/inlets"), json::parse(R"([{"material": "debris", "direction": "+z",
+         "at": 0.3, "min": [0], "max": [0.1], "speed": 1}])")), "inlets[0].direction", {"'+z'", "+x, -x"}),
+    edit("InletOpeningThinnerThanDp", set(P("/inlets"), json::parse(R"([{"material": "debris", "direction": "+x",
+         "at": 0.3, "min": [0.1], "max": [0.11], "speed": 1}])")), "inlets[0].max", {"at least dp"}),
+    edit("InletSpeedAndDischarge", set(P("/inlets"), json::parse(R"([{"material": "debris", "direction": "+x",
+         "at": 0.3, "min": [0], "max": [0.1], "speed": 1, "discharge": 0.1}])")), "inlets[0]", {"exactly one"}),
+    edit("InletNegativeSpeed", set(P("/inlets"), json::parse(R"([{"material": "debris", "direction": "-x",
+         "at": 0.3, "min": [0], "max": [0.1], "speed": -1}])")), "inlets[0].speed", {"[0, 1e+06]"}),
+    edit("InletHydrographTimesGoBack", set(P("/inlets"), json::parse(R"([{"material": "debris", "direction": "+x",
+         "at": 0.3, "min": [0], "max": [0.1], "discharge": [[0, 0], [2, 0.1], [1, 0]]}])")),
+         "inlets[0].discharge[2][0]", {"increase"}),
+    edit("InletWithDbcWalls", [](json& j) {
+           j["inlets"] = json::parse(R"([{"material": "debris", "direction": "+x", "at": 0.3, "min": [0],
+                                         "max": [0.1], "speed": 1}])");
+           j["numerics"]["boundary_pressure"] = "dbc";
+         }, "numerics.boundary_pressure", {"extrapolated"}),
+    edit("InletUnknownMaterial", set(P("/inlets"), json::parse(R"([{"material": "mud", "direction": "+x",
+         "at": 0.3, "min": [0], "max": [0.1], "speed": 1}])")), "inlets[0].material", {"'mud'"}),
 };
 
 class SceneRefusal : public ::testing::TestWithParam<Case> {};

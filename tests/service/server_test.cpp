@@ -324,10 +324,12 @@ TEST_F(Service, OpenApiDocumentDescribesEveryRoute) {
       {"/jobs", {"get", "post"}},
       {"/jobs/{id}", {"get", "delete"}},
       {"/sweeps", {"post"}},
+      {"/estimate", {"post"}},
       {"/jobs/{id}/metrics", {"get"}},
       {"/jobs/{id}/series/{name}.csv", {"get"}},
       {"/jobs/{id}/rasters/{name}.tif", {"get"}},
       {"/jobs/{id}/map.png", {"get"}},
+      {"/jobs/{id}/map.json", {"get"}},
       {"/compare", {"get"}}};
   const json& paths = doc.body.at("paths");
   EXPECT_EQ(paths.size(), routes.size());
@@ -338,7 +340,7 @@ TEST_F(Service, OpenApiDocumentDescribesEveryRoute) {
   }
   // Every route answers: an unknown id is 404 (not 405), a wrong method 405 with Allow.
   for (const std::string p : {"/scenes/9", "/jobs/9", "/jobs/9/metrics", "/jobs/9/series/run.csv", "/jobs/9/rasters/max_depth.tif",
-                              "/jobs/9/map.png"})
+                              "/jobs/9/map.png", "/jobs/9/map.json"})
     EXPECT_EQ(get(p).status, 404) << p;
   const Reply wrong = request("PUT", "/api/v1/sweeps", "{}");
   EXPECT_EQ(wrong.status, 405);

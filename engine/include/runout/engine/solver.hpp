@@ -81,6 +81,28 @@ struct ParticleArrays {
   }
 };
 
+// A velocity inlet (an inflow boundary): flow enters across the plane x[axis] = at through a rectangular
+// opening, at a prescribed speed along +/- axis that may vary in time (a hydrograph). Upstream of the plane
+// a buffer of layers of particles moves at that speed, with the hydrostatic density of a free surface at the
+// opening's top; they give the flow beyond the plane full kernel support. A buffer particle that crosses the
+// plane becomes flow and a new one enters at the back of the buffer, so the volume rate is speed x opening
+// area exactly, one particle at a time. Flow that runs back into the buffer is removed (counted as outflow).
+template <int D>
+struct InletSpec {
+  std::string name;
+  int axis = 0;                  // horizontal axis the flow enters along (0 = x; 1 = y in 3D)
+  int direction = 1;             // +1: towards increasing x[axis]
+  real at = 0;                   // the plane [m]
+  // The opening: bounds of the other coordinates in axis order (2D: z; 3D: the other horizontal, then z).
+  std::array<real, D - 1> lo{}, hi{};
+  std::vector<std::array<real, 2>> speed;  // (t [s], speed [m/s]) pairs, increasing t; linear between, held after
+  uint16_t material = 0;
+  real speed_at(real t) const;
+};
+
+// Layers of an inlet's buffer: enough that a particle at the plane has full kernel support behind it.
+int inlet_buffer_layers(const SolverConfig& config);
+
 // What a scene hands the solver.
 template <int D>
 struct SceneSetup {
@@ -90,6 +112,7 @@ struct SceneSetup {
   ParticleArrays<D> fluid;
   ParticleArrays<D> boundary;
   std::vector<LeakRegion<D>> leak_regions;
+  std::vector<InletSpec<D>> inlets;
 };
 
 struct StepStats {
@@ -99,16 +122,20 @@ struct StepStats {
   size_t active_boundary = 0;  // boundary particles that did work this step
 };
 
+// Flow mass per material: current = initial + inflow - outflow (inlet buffers are not flow until they
+// cross their plane).
 struct MassBalance {
-  std::vector<long double> initial, current, outflow;  // per material [kg]
+  std::vector<long double> initial, current, outflow, inflow;  // per material [kg]
   long double total_initial() const;
   long double total_current() const;
   long double total_outflow() const;
+  long double total_inflow() const;
 };
 
 struct EnergySummary {
   real kinetic = 0;            // [J]
-  real potential_released = 0; // PE(0) - PE(t) over fluid, outflow included [J]
+  real potential_released = 0; // PE(0) - PE(t) over fluid, outflow and inflow at their crossing included [J]
+  real inflow_kinetic = 0;     // kinetic energy inlets brought in, at their planes [J]
 };
 
 template <int D>
@@ -134,6 +161,12 @@ class Solver {
   const std::vector<real>& fluid_shear_rate() const { return shear_rate_; }
   const std::vector<real>& boundary_pressure() const { return boundary_pressure_; }
   const StepStats& last_step() const { return stats_; }
+  // Fluid particle ids are below this (inlets add particles with new ids as the run goes).
+  uint32_t id_bound() const { return next_id_; }
+  const std::vector<InletSpec<D>>& inlets() const { return inlets_; }
+  // True for a particle of an inlet's buffer (not flow yet: not in the mass balance nor the energies).
+  static bool is_inlet_buffer(uint32_t fluid_tag) { return (fluid_tag & kInletBufferBit) != 0; }
+  static constexpr uint32_t kInletBufferBit = 0x80000000u;  // on a fluid particle's tag: the rest is the inlet index
 
   MassBalance mass_balance() const;
   EnergySummary energy() const;
@@ -153,6 +186,8 @@ class Solver {
   std::vector<std::unique_ptr<Rheology>> rheologies_;
   ParticleArrays<D> fluid_, boundary_;
   std::vector<LeakRegion<D>> leak_regions_;
+  std::vector<InletSpec<D>> inlets_;
+  uint32_t next_id_ = 0;
 
   // fluid per-particle work arrays
   std::array<std::vector<real>, D> acc_;
@@ -175,11 +210,17 @@ class Solver {
   MassBalance mass_;
   real potential_initial_ = 0;
   real potential_outflow_ = 0;  // PE(0) contribution of removed particles at their removal point
+  real kinetic_inflow_ = 0;
 
   void sort_and_build_cells();
   void evaluate(bool compute_dt);
   void check_state();
   real potential_energy() const;
+  void create_inlet_buffers();
+  void impose_inlet_state();     // buffer particles: the inlet's velocity, hydrostatic density
+  void advance_inlets();         // buffer particles past their plane become flow; new ones enter behind
+  real inlet_density(const InletSpec<D>& in, real z) const;
+  bool in_inlet_buffer(const Vec<D>& p) const;
 };
 
 extern template class Solver<2>;

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,17 @@ struct StoreRunOptions {
 };
 StoredRun run_and_store(RunStore& store, const std::string& resolved_json, const std::filesystem::path& base_dir,
                         const StoreRunOptions& options);
+
+// run_and_store in its two halves, so that a run can execute in one process (an MPI worker rank) and be stored
+// by another (rank 0, which owns the store), with exactly the record run_and_store would have stored.
+// The stored completed run with this manifest hash, if any (reused = true).
+std::optional<StoredRun> find_completed_run(const RunStore& store, const std::string& manifest_hash);
+// Parses and runs the resolved scene to options.run.out_dir (removed first) and returns the record to store;
+// `result` gets the status, error and wall time (run_id stays 0). Nothing is stored. Throws what parse_scene
+// and run_scene throw (a refused scene, a run that could not start).
+RunStore::RunRecord execute_run(const std::string& resolved_json, const Manifest& manifest,
+                                const std::filesystem::path& base_dir, const StoreRunOptions& options,
+                                StoredRun& result);
 
 struct SweepEvent {
   enum Kind { started, progress, finished } kind;

@@ -1,0 +1,74 @@
+#pragma once
+// The cost model: a run's particle count and wall time predicted from the built scene before it runs
+// (docs/tradeoff.md, "The cost model"). The work of an SPH step is the particle pairs it visits, so
+//
+//   steps          = k_D * duration / dt0
+//   dt0            = min(cfl h / c0, 0.125 h^2 / nu_max, cfl sqrt(h / g))        (the engine's limits at rest)
+//   seconds/step   = (a_D * fluid_mean * (h/dp)^D * passes + b_D * boundary + c_D) / speedup(threads)
+//
+// fluid_mean is the flow particles averaged over the run (inlets add theirs as they enter), (h/dp)^D scales
+// the neighbours each one visits, passes is 2 when a material carries a stress (velocity gradient, then
+// stress divergence) and 1 for inviscid water; boundary is every boundary particle (their cell sorting is
+// per step; only those next to the flow do pair work, which the fluid term carries). k_D takes up what
+// the rest state does not see (flow speed in the acoustic limit, the force limit of impacts). The
+// coefficients are fitted by least squares on relative error from stored runs (`runout calibrate`).
+#include <string>
+#include <vector>
+
+#include "runout/scenarios/scene.hpp"
+
+namespace runout {
+
+struct CostFeatures {
+  int dimensions = 3;
+  double fluid = 0;        // flow particles at the start
+  double fluid_mean = 0;   // averaged over the run (with inlets' inflow)
+  double boundary = 0;
+  double neighbours = 0;   // (h/dp)^D
+  double passes = 1;       // 1 inviscid, 2 with a stress term
+  double duration = 0;     // [s]
+  double dt0 = 0;          // the step at rest [s]
+};
+CostFeatures cost_features(const Scene& scene);
+
+struct CostCoefficients {
+  double step_ratio = 1.2;  // k: steps / (duration / dt0)
+  double a_fluid = 0;       // [s] per fluid particle x (h/dp)^D x pass, one thread
+  double b_boundary = 0;    // [s] per boundary particle, one thread
+  double c_step = 0;        // [s] per step
+};
+
+struct CostPrediction {
+  double particles = 0;   // fluid + boundary at the start
+  double steps = 0;
+  double seconds_per_step = 0;
+  double seconds = 0;     // wall-clock
+  double speedup = 1;     // of `threads` over one
+};
+
+struct CostModel {
+  CostCoefficients two_d, three_d;
+  double parallel_efficiency = 0.9;  // of each thread after the first
+  // The coefficients fitted on this project's measurements (the figures and the command: docs/tradeoff.md).
+  static CostModel calibrated();
+  CostPrediction predict(const CostFeatures& f, int threads) const;
+};
+
+// One measured run, for the fit.
+struct CostObservation {
+  CostFeatures features;
+  double steps = 0;
+  double wall_seconds = 0;
+  int threads = 1;
+  std::string label;
+};
+
+// Least squares on relative error, per dimension (dimensions with fewer than two observations keep `prior`'s
+// coefficients); a negative coefficient is dropped and the rest refitted.
+CostModel fit_cost_model(const std::vector<CostObservation>& runs, const CostModel& prior = CostModel::calibrated());
+
+// The features and measured cost of a stored run, from its metrics.json text ("cost_features", "steps",
+// "wall_time_s", "threads"); false when the run lacks them (stored before the cost model existed).
+bool cost_observation_from_metrics(const std::string& metrics_json, CostObservation& out);
+
+}  // namespace runout

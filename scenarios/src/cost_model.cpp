@@ -1,0 +1,170 @@
+// The cost model (cost_model.hpp, docs/tradeoff.md).
+#include "runout/scenarios/cost_model.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <Eigen/Dense>
+#include <nlohmann/json.hpp>
+
+namespace runout {
+
+namespace {
+
+// Volume an inlet delivers over [0, T]: its speed (piecewise linear in t, speed_at) integrated exactly by
+// trapezoids between the table's times, times the opening.
+template <int D>
+double inlet_volume(const InletSpec<D>& in, double T) {
+  double area = 1;
+  for (int k = 0; k < D - 1; ++k) area *= in.hi[k] - in.lo[k];
+  std::vector<double> t = {0.0, T};
+  for (const auto& row : in.speed)
+    if (row[0] > 0 && row[0] < T) t.push_back(row[0]);
+  std::sort(t.begin(), t.end());
+  double v = 0;
+  for (size_t i = 1; i < t.size(); ++i) v += 0.5 * (in.speed_at(t[i - 1]) + in.speed_at(t[i])) * (t[i] - t[i - 1]);
+  return v * area;
+}
+
+}  // namespace
+
+CostFeatures cost_features(const Scene& scene) {
+  CostFeatures f;
+  f.dimensions = scene.dimensions;
+  f.duration = scene.duration;
+  std::visit(
+      [&](const auto& setup) {
+        constexpr int D = std::decay_t<decltype(setup)>::kDim;
+        const SolverConfig& c = setup.config;
+        const double h = c.smoothing_length, dp = c.dp;
+        f.fluid = static_cast<double>(setup.fluid.size());
+        f.boundary = static_cast<double>(setup.boundary.size());
+        f.neighbours = std::pow(h / dp, D);
+        // Inlets: their buffers work from the start; what they deliver joins the flow linearly on average.
+        double buffer = 0, inflow = 0;
+        for (const auto& in : setup.inlets) {
+          double opening = 1;
+          for (int k = 0; k < D - 1; ++k) opening *= (in.hi[k] - in.lo[k]) / dp;
+          buffer += opening * inlet_buffer_layers(c);
+          inflow += inlet_volume(in, scene.duration) / std::pow(dp, D);
+        }
+        f.fluid_mean = f.fluid + buffer + 0.5 * inflow;
+
+        // The engine's step limits at rest (solver.cpp): acoustic cfl h / c0, force cfl sqrt(h / g), viscous
+        // 0.125 h^2 / nu with mu_eff capped (yield-stress and power-law materials reach the cap in their plugs).
+        double rho_min = 1e300;
+        for (const auto& m : setup.materials) rho_min = std::min<double>(rho_min, m.density);
+        const double cap = c.max_viscosity > 0 ? c.max_viscosity
+                                               : c.viscosity_cap_factor * 0.125 * h * rho_min * c.speed_of_sound / c.cfl;
+        double g = 0;
+        for (int d = 0; d < D; ++d) g += c.gravity[d] * c.gravity[d];
+        g = std::sqrt(g);
+        double dt = c.cfl * h / c.speed_of_sound;
+        if (g > 0) dt = std::min(dt, c.cfl * std::sqrt(h / g));
+        f.passes = 1;
+        for (const auto& m : setup.materials) {
+          if (make_rheology(m)->is_inviscid()) continue;
+          f.passes = 2;
+          const bool newtonian = m.flow_index == 1.0 && m.yield_stress == 0.0 && m.friction_angle_deg == 0.0 &&
+                                 m.cohesion == 0.0;
+          const double mu = newtonian ? std::min<double>(m.viscosity, cap) : cap;
+          dt = std::min(dt, 0.125 * h * h * m.density / mu);
+        }
+        f.dt0 = dt;
+      },
+      scene.setup);
+  return f;
+}
+
+CostModel CostModel::calibrated() {
+  CostModel m;
+  // Fitted by `runout calibrate` (docs/tradeoff.md, "The cost model", where the runs and the command are).
+  m.two_d = {1.10, 4.4e-7, 1.0e-8, 1.0e-5};
+  m.three_d = {1.20, 2.2e-7, 2.0e-8, 1.0e-4};
+  m.parallel_efficiency = 0.9;
+  return m;
+}
+
+CostPrediction CostModel::predict(const CostFeatures& f, int threads) const {
+  const CostCoefficients& k = f.dimensions == 2 ? two_d : three_d;
+  CostPrediction p;
+  p.particles = f.fluid + f.boundary;
+  p.steps = f.dt0 > 0 ? std::ceil(k.step_ratio * f.duration / f.dt0) : 0;
+  p.speedup = 1.0 + parallel_efficiency * std::max(0, threads - 1);
+  p.seconds_per_step =
+      (k.a_fluid * f.fluid_mean * f.neighbours * f.passes + k.b_boundary * f.boundary + k.c_step) / p.speedup;
+  p.seconds = p.steps * p.seconds_per_step;
+  return p;
+}
+
+CostModel fit_cost_model(const std::vector<CostObservation>& runs, const CostModel& prior) {
+  CostModel out = prior;
+  for (int D : {2, 3}) {
+    std::vector<const CostObservation*> obs;
+    for (const auto& r : runs)
+      if (r.features.dimensions == D && r.steps > 0 && r.wall_seconds > 0 && r.features.dt0 > 0) obs.push_back(&r);
+    if (obs.size() < 2) continue;
+    CostCoefficients& k = D == 2 ? out.two_d : out.three_d;
+    // Steps: the geometric mean of measured / (duration / dt0), i.e. least squares on log ratio.
+    double log_sum = 0;
+    for (const auto* r : obs) log_sum += std::log(r->steps * r->features.dt0 / r->features.duration);
+    k.step_ratio = std::exp(log_sum / obs.size());
+    // Time per step on one thread, y = wall * speedup / steps, linear in the three columns; rows divided by y
+    // so the fit minimises relative error (a small scene counts as much as a large one).
+    std::vector<int> cols = {0, 1, 2};
+    for (;;) {
+      Eigen::MatrixXd A(obs.size(), cols.size());
+      Eigen::VectorXd b = Eigen::VectorXd::Ones(obs.size());
+      for (size_t i = 0; i < obs.size(); ++i) {
+        const auto& r = *obs[i];
+        const double speedup = 1.0 + out.parallel_efficiency * std::max(0, r.threads - 1);
+        const double y = r.wall_seconds * speedup / r.steps;
+        const double x[3] = {r.features.fluid_mean * r.features.neighbours * r.features.passes, r.features.boundary, 1.0};
+        for (size_t c = 0; c < cols.size(); ++c) A(i, c) = x[cols[c]] / y;
+      }
+      const Eigen::VectorXd coef = A.colPivHouseholderQr().solve(b);
+      int worst = -1;
+      for (size_t c = 0; c < cols.size(); ++c)
+        if (coef[c] < 0 && (worst < 0 || coef[c] < coef[worst])) worst = static_cast<int>(c);
+      if (worst >= 0 && cols.size() > 1) {
+        cols.erase(cols.begin() + worst);
+        continue;
+      }
+      double a[3] = {0, 0, 0};
+      for (size_t c = 0; c < cols.size(); ++c) a[cols[c]] = std::max(0.0, coef[c]);
+      k.a_fluid = a[0];
+      k.b_boundary = a[1];
+      k.c_step = a[2];
+      break;
+    }
+  }
+  return out;
+}
+
+bool cost_observation_from_metrics(const std::string& metrics_json, CostObservation& out) {
+  const auto j = nlohmann::json::parse(metrics_json, nullptr, false);
+  if (j.is_discarded() || !j.is_object() || !j.contains("cost_features") || !j["cost_features"].is_object())
+    return false;
+  const auto& c = j["cost_features"];
+  try {
+    out.features.dimensions = j.at("dimensions").get<int>();
+    out.features.fluid = c.at("fluid").get<double>();
+    out.features.fluid_mean = c.at("fluid_mean").get<double>();
+    out.features.boundary = c.at("boundary").get<double>();
+    out.features.neighbours = c.at("neighbours").get<double>();
+    out.features.passes = c.at("passes").get<double>();
+    out.features.duration = c.at("duration_s").get<double>();
+    out.features.dt0 = c.at("dt0_s").get<double>();
+    out.steps = j.at("steps").get<double>();
+    out.wall_seconds = j.at("wall_time_s").get<double>();
+    out.threads = j.at("threads").get<int>();
+    out.label = j.value("scene", std::string());
+  } catch (const nlohmann::json::exception&) {
+    return false;
+  }
+  // A stopped or failed run ran only part of its duration.
+  return j.value("status", std::string()) == "completed";
+}
+
+}  // namespace runout

@@ -1,0 +1,644 @@
+// The Runout page (docs/web.md): choose a layout of a stored base scene, see its estimate, submit it (or all
+// permutations), watch the jobs, compare finished ones against a baseline. Everything goes through the JSON
+// API (api.js); the API validates, and its messages are shown beside the field they name.
+import { ApiError, get, post, del, token, setToken, parseCsv, API } from '/web/api.js';
+import { lineChart, clearCharts, colourOf, shortNumber } from '/web/charts.js';
+import { drawMap } from '/web/map.js';
+
+const $ = (id) => document.getElementById(id);
+
+const state = {
+  scenes: [],
+  scene: null, // {id, name, structures: [names], types: {name: type}}
+  jobs: new Map(), // id -> job (the latest poll)
+  ticked: new Set(), // jobs to compare
+  baseline: null,
+  total: 0,
+  estimateSeq: 0,
+};
+
+// ---------------------------------------------------------------------------------------------------------
+// Formatting
+
+const int = (n) => (n == null ? '–' : Number(n).toLocaleString('en-US'));
+
+function duration(s) {
+  if (s == null || !Number.isFinite(s)) return '–';
+  if (s < 1) return '< 1 s';
+  if (s < 90) return `${Math.round(s)} s`;
+  if (s < 5400) return `${Math.floor(s / 60)} min ${Math.round(s % 60)} s`;
+  return `${Math.floor(s / 3600)} h ${Math.round((s % 3600) / 60)} min`;
+}
+
+// Table numbers: 6 significant digits (percentages 4), written so that Number() reads them back.
+export const tableNumber = (v, digits = 6) => (v == null ? '–' : String(Number(v.toPrecision(digits))));
+
+// ---------------------------------------------------------------------------------------------------------
+// Errors beside fields
+
+const SLOTS = ['scene_id', 'scene', 'structures', 'variant', 'name', 'fidelity', 'Authorization', 'form'];
+
+// Which form field an API error belongs to (its `field` is a JSON path into the body, a header or "(body)").
+function slotFor(field, context) {
+  if (context === 'scene') return 'scene'; // POST /scenes: any field is a field of the pasted scene
+  if (!field || field === '(body)' || field === '(request)' || field === 'idempotency_key') return 'form';
+  if (field === 'Authorization') return 'Authorization';
+  if (field === 'fidelity' || field.startsWith('fidelity.')) return 'fidelity';
+  // Over the particle budget the validator names dp: a coarser fidelity is the way out.
+  if (field === 'dp' || field.endsWith('.dp')) return 'fidelity';
+  if (field === 'structures' || field.startsWith('structures[') || field.startsWith('factorial.structures'))
+    return 'structures';
+  if (field === 'variant') return 'variant';
+  if (field === 'name' || field === 'factorial' || field.startsWith('factorial.') || field === 'variants') return 'name';
+  return 'scene_id'; // scene_id itself, or a field of the stored scene (its validator's message)
+}
+
+function clearErrors(slots = SLOTS) {
+  for (const s of slots) {
+    const p = $(`err-${s}`);
+    if (p) p.textContent = '';
+    const f = $(`field-${s}`);
+    if (f) f.classList.remove('invalid');
+  }
+  for (const el of document.querySelectorAll('[aria-invalid="true"]')) el.removeAttribute('aria-invalid');
+}
+
+function showError(e, context) {
+  const slot = e instanceof ApiError ? slotFor(e.field, context) : context === 'scene' ? 'scene' : 'form';
+  const p = $(`err-${slot}`);
+  const field = e instanceof ApiError && e.field ? e.field : '';
+  p.textContent = '';
+  if (field) {
+    const code = document.createElement('code');
+    code.textContent = field;
+    p.append(code, document.createTextNode(': '));
+  }
+  p.append(document.createTextNode(e.message));
+  p.dataset.field = field;
+  p.dataset.status = e instanceof ApiError ? e.status : '';
+  const f = $(`field-${slot}`);
+  if (f) {
+    f.classList.add('invalid');
+    // The control the field names: the spacing input for a dp, else the slot's first text control.
+    const dp = (field === 'dp' || field.endsWith('.dp')) && !$('dp').hidden ? $('dp') : null;
+    const input = dp || f.querySelector('input:not([type=checkbox]):not([type=radio]):not([type=file]):not([hidden]), select, textarea');
+    if (input) {
+      input.setAttribute('aria-invalid', 'true');
+      input.setAttribute('aria-describedby', p.id);
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Health, scenes
+
+async function loadHealth() {
+  try {
+    const h = await get('/health');
+    const j = h.jobs || {};
+    $('health').textContent =
+      `v${h.version} · ${h.workers} worker${h.workers === 1 ? '' : 's'} (${h.busy_workers} busy) × ${h.threads_per_job} thread${h.threads_per_job === 1 ? '' : 's'} · ` +
+      `budget ${int(h.particle_budget)} particles · writes ${h.auth === 'open' ? 'open' : 'need the token'} · ` +
+      `${j.queued || 0} queued, ${j.running || 0} running`;
+    $('token-note').textContent = h.auth === 'open' ? '(not needed: writes are open)' : '(needed; kept in this tab only)';
+    $('health').classList.remove('down');
+  } catch (e) {
+    $('health').textContent = `service unreachable: ${e.message}`;
+    $('health').classList.add('down');
+  }
+}
+
+async function loadScenes(selectId) {
+  const { scenes } = await get('/scenes');
+  state.scenes = scenes;
+  const sel = $('scene-select');
+  sel.replaceChildren();
+  if (scenes.length === 0) {
+    const o = new Option('no stored scenes: add one below', '');
+    sel.append(o);
+    $('scene-add').open = true;
+  }
+  for (const s of scenes) sel.append(new Option(`${s.name} (#${s.id}, ${s.structures.length} candidate structures)`, s.id));
+  const keep = selectId ?? state.scene?.id ?? scenes[scenes.length - 1]?.id;
+  if (keep != null) sel.value = String(keep);
+  await pickScene();
+}
+
+async function pickScene() {
+  const id = Number($('scene-select').value);
+  const list = $('structure-list');
+  if (!id) {
+    state.scene = null;
+    list.replaceChildren(Object.assign(document.createElement('span'), { className: 'muted', textContent: 'pick a scene' }));
+    scheduleEstimate();
+    return;
+  }
+  const s = await get(`/scenes/${id}`);
+  const types = {};
+  for (const st of s.scene.structures || []) types[st.name] = st.type;
+  state.scene = { id, name: s.name, structures: s.structures, types, dimensions: s.scene.dimensions };
+  list.replaceChildren();
+  if (s.structures.length === 0) {
+    list.append(Object.assign(document.createElement('span'), { className: 'muted', textContent: 'this scene has no candidate structures' }));
+  }
+  for (const name of s.structures) {
+    const label = document.createElement('label');
+    label.className = 'check';
+    const box = document.createElement('input');
+    box.type = 'checkbox';
+    box.value = name;
+    box.name = 'structure';
+    const type = (types[name] || '').replace(/_/g, ' ');
+    const text = document.createElement('span');
+    text.append(document.createTextNode(name));
+    if (type) text.append(Object.assign(document.createElement('span'), { className: 'muted small', textContent: ` ${type}` }));
+    label.append(box, text);
+    list.append(label);
+  }
+  scheduleEstimate();
+}
+
+async function storeScene() {
+  clearErrors(['scene']);
+  const text = $('scene-json').value;
+  try {
+    const s = await post('/scenes', text); // the text as it is: the API judges the JSON
+    $('err-scene').textContent = '';
+    $('submit-status').textContent = `scene #${s.id} ${s.name} stored`;
+    await loadScenes(s.id);
+    $('scene-add').open = false;
+  } catch (e) {
+    showError(e, 'scene');
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// The form
+
+function tickedStructures() {
+  return [...document.querySelectorAll('#structure-list input[type=checkbox]:checked')].map((b) => b.value);
+}
+
+function mode() {
+  return document.querySelector('input[name=mode]:checked').value;
+}
+
+// The fidelity as the API takes it. A custom dp is sent as typed when it is not a number, so that the API's
+// message (not the page's) answers it.
+function fidelity() {
+  const f = $('fidelity').value;
+  if (f !== 'custom') return f;
+  const text = $('dp').value.trim();
+  const n = Number(text);
+  return { dp: text !== '' && Number.isFinite(n) ? n : text };
+}
+
+function jobBody(structures = tickedStructures()) {
+  const body = { scene_id: state.scene?.id ?? null, structures, fidelity: fidelity() };
+  const v = $('variant').value.trim();
+  if (v) body.variant = v;
+  return body;
+}
+
+function sweepBody() {
+  const body = { scene_id: state.scene?.id ?? null, fidelity: fidelity(), factorial: { structures: tickedStructures() } };
+  const n = $('sweep-name').value.trim();
+  const p = $('sweep-prefix').value.trim();
+  if (n) body.name = n;
+  if (p) body.factorial.prefix = p;
+  return body;
+}
+
+// All subsets of `names`, as factorial_variants numbers them (by size, then order).
+function subsets(names) {
+  const out = [];
+  for (let m = 0; m < 1 << names.length; m++) out.push(names.filter((_, k) => m & (1 << k)));
+  return out.sort((a, b) => a.length - b.length);
+}
+
+let estimateTimer = null;
+function scheduleEstimate() {
+  clearTimeout(estimateTimer);
+  estimateTimer = setTimeout(runEstimate, 350);
+}
+
+async function runEstimate() {
+  const seq = ++state.estimateSeq;
+  const box = $('estimate');
+  clearErrors();
+  if (!state.scene) {
+    box.replaceChildren();
+    return;
+  }
+  box.classList.add('busy');
+  try {
+    if (mode() === 'single') {
+      const e = await post('/estimate', jobBody());
+      if (seq !== state.estimateSeq) return;
+      renderEstimate([e], 1);
+    } else {
+      const names = tickedStructures();
+      // Up to 32 layouts each estimated; beyond, the empty and the full layout bracket the rest.
+      const layouts = names.length <= 5 ? subsets(names) : [[], names];
+      const results = [];
+      for (const layout of layouts) {
+        const body = jobBody(layout);
+        delete body.variant;
+        results.push(await post('/estimate', body));
+        if (seq !== state.estimateSeq) return;
+      }
+      renderEstimate(results, 2 ** names.length);
+    }
+  } catch (e) {
+    if (seq !== state.estimateSeq) return;
+    box.replaceChildren(Object.assign(document.createElement('span'), { className: 'muted', textContent: 'no estimate: see the message beside the field' }));
+    delete box.dataset.fluid;
+    showError(e);
+  } finally {
+    if (seq === state.estimateSeq) box.classList.remove('busy');
+  }
+}
+
+function renderEstimate(results, jobs) {
+  const box = $('estimate');
+  box.replaceChildren();
+  const e = results[0];
+  const m = e.model;
+  if (jobs === 1) {
+    delete box.dataset.jobs;
+    box.dataset.fluid = e.particles.fluid;
+    box.dataset.boundary = e.particles.boundary;
+    box.dataset.steps = e.steps_estimate;
+    box.dataset.seconds = e.seconds_estimate;
+    box.innerHTML = '';
+    const lines = [
+      ['particles', `${int(e.particles.fluid)} fluid + ${int(e.particles.boundary)} boundary = ${int(e.particles.total)} (budget ${int(e.particle_budget)})`],
+      ['steps', `≈ ${int(e.steps_estimate)} (Δt ≈ ${shortNumber(m.dt_s * 1000)} ms over ${shortNumber(m.duration_s)} s; dp ${shortNumber(e.dp)} m)`],
+      ['run time', `≈ ${duration(e.seconds_estimate)} on ${m.threads} thread${m.threads === 1 ? '' : 's'}`],
+    ];
+    box.append(definitionList(lines));
+  } else {
+    const fluid = results.map((r) => r.particles.fluid);
+    const total = results.map((r) => r.particles.total);
+    const mean = (a) => a.reduce((s, x) => s + x, 0) / a.length;
+    const secs = results.map((r) => r.seconds_estimate);
+    const steps = results.map((r) => r.steps_estimate);
+    const exact = results.length === jobs;
+    const allSecs = exact ? secs.reduce((s, x) => s + x, 0) : mean(secs) * jobs;
+    for (const k of ['fluid', 'boundary', 'steps']) delete box.dataset[k];
+    box.dataset.jobs = jobs;
+    box.dataset.seconds = allSecs;
+    box.append(
+      definitionList([
+        ['jobs', `${jobs} (every subset of ${Math.log2(jobs)} structures)`],
+        ['particles per job', `${int(Math.min(...fluid))}–${int(Math.max(...fluid))} fluid, ${int(Math.min(...total))}–${int(Math.max(...total))} in all`],
+        ['steps per job', `≈ ${int(Math.min(...steps))}–${int(Math.max(...steps))}`],
+        ['run time', `${exact ? '≈' : 'about'} ${duration(allSecs)} for the sweep on one worker`],
+      ]),
+    );
+  }
+}
+
+function definitionList(rows) {
+  const dl = document.createElement('dl');
+  for (const [k, v] of rows) {
+    dl.append(Object.assign(document.createElement('dt'), { textContent: k }), Object.assign(document.createElement('dd'), { textContent: v }));
+  }
+  return dl;
+}
+
+async function submit(ev) {
+  ev.preventDefault();
+  clearErrors();
+  const status = $('submit-status');
+  if (!state.scene) {
+    showError(new ApiError(0, 'scene_id', 'pick a stored scene, or add one'));
+    return;
+  }
+  $('submit-btn').disabled = true;
+  status.textContent = 'submitting…';
+  try {
+    if (mode() === 'single') {
+      const job = await post('/jobs', jobBody());
+      status.textContent = `job #${job.id} ${job.scene_name} queued`;
+    } else {
+      const sweep = await post('/sweeps', sweepBody());
+      status.textContent = `sweep #${sweep.id} ${sweep.name}: ${sweep.jobs.length} jobs queued`;
+    }
+    await pollJobs();
+  } catch (e) {
+    status.textContent = '';
+    showError(e);
+  } finally {
+    $('submit-btn').disabled = false;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Jobs
+
+const PAGE = 100;
+let pollTimer = null;
+
+async function pollJobs() {
+  clearTimeout(pollTimer);
+  let active = false;
+  try {
+    // The newest PAGE jobs (the list is oldest first).
+    let r = await get(`/jobs?limit=${PAGE}&offset=${Math.max(0, state.total - PAGE)}`);
+    if (r.total !== state.total) {
+      state.total = r.total;
+      r = await get(`/jobs?limit=${PAGE}&offset=${Math.max(0, r.total - PAGE)}`);
+    }
+    state.jobs = new Map(r.jobs.map((j) => [j.id, j]));
+    renderJobs(r);
+    active = r.jobs.some((j) => j.status === 'queued' || j.status === 'running');
+    $('err-jobs').textContent = '';
+  } catch (e) {
+    $('err-jobs').textContent = `jobs: ${e.message}`;
+  }
+  loadHealth();
+  pollTimer = setTimeout(pollJobs, active ? 1000 : 4000);
+}
+
+const rows = new Map(); // job id -> <tr>
+
+function cell(tr, k) {
+  return tr.children[k];
+}
+
+function renderJobs(r) {
+  const tbody = document.querySelector('#jobs-table tbody');
+  const ids = r.jobs.map((j) => j.id).reverse(); // newest first
+  for (const [id, tr] of rows) if (!state.jobs.has(id)) (tr.remove(), rows.delete(id));
+  let previous = null;
+  for (const id of ids) {
+    const j = state.jobs.get(id);
+    let tr = rows.get(id);
+    if (!tr) {
+      tr = newJobRow(j);
+      rows.set(id, tr);
+    }
+    if (previous ? previous.nextSibling !== tr : tbody.firstChild !== tr) {
+      if (previous) previous.after(tr);
+      else tbody.prepend(tr);
+    }
+    previous = tr;
+    updateJobRow(tr, j);
+  }
+  $('jobs-more').textContent = r.total > ids.length ? `the newest ${ids.length} of ${r.total} jobs` : r.total === 0 ? 'no jobs yet' : '';
+  for (const id of [...state.ticked]) if (!state.jobs.has(id)) state.ticked.delete(id);
+  updateCompareButton();
+}
+
+function newJobRow(j) {
+  const tr = document.createElement('tr');
+  tr.dataset.job = j.id;
+  const tick = Object.assign(document.createElement('input'), { type: 'checkbox', title: `compare job ${j.id}` });
+  tick.className = 'tick';
+  tick.addEventListener('change', () => {
+    if (tick.checked) state.ticked.add(j.id);
+    else state.ticked.delete(j.id);
+    updateCompareButton();
+  });
+  const base = Object.assign(document.createElement('input'), { type: 'radio', name: 'baseline', title: `job ${j.id} as the baseline` });
+  base.className = 'base';
+  base.addEventListener('change', () => {
+    if (base.checked) state.baseline = j.id;
+    updateCompareButton();
+  });
+  const cancel = Object.assign(document.createElement('button'), { type: 'button', textContent: 'cancel', className: 'cancel' });
+  cancel.addEventListener('click', () => cancelJob(j.id, cancel));
+  const cells = [tick, base, null, null, null, null, null, null, cancel];
+  cells.forEach((c, k) => {
+    const td = document.createElement(k === 2 ? 'th' : 'td');
+    if (k === 2) td.scope = 'row';
+    if (k === 4 || k === 5) td.className = 'wide';
+    if (k === 5) td.classList.add('num');
+    if (c) td.append(c);
+    tr.append(td);
+  });
+  const bar = document.createElement('div');
+  bar.className = 'bar';
+  bar.append(Object.assign(document.createElement('div'), { className: 'fill' }));
+  cell(tr, 7).append(bar, Object.assign(document.createElement('span'), { className: 'small progress-text' }));
+  return tr;
+}
+
+function updateJobRow(tr, j) {
+  const done = j.status === 'done';
+  const tick = tr.querySelector('.tick');
+  const base = tr.querySelector('.base');
+  tick.disabled = !done;
+  base.disabled = !done;
+  tick.checked = done && state.ticked.has(j.id);
+  base.checked = done && state.baseline === j.id;
+  cell(tr, 2).textContent = j.id;
+  const name = cell(tr, 3);
+  name.textContent = j.scene_name;
+  if (j.sweep) name.append(Object.assign(document.createElement('span'), { className: 'muted small', textContent: ` · ${j.sweep}` }));
+  cell(tr, 4).textContent = j.fidelity + (j.dp ? ` ${j.dp} m` : '');
+  cell(tr, 5).textContent = int(j.particles);
+  const st = cell(tr, 6);
+  st.replaceChildren(Object.assign(document.createElement('span'), { className: `badge status-${j.status}`, textContent: j.cancel_requested && j.status === 'running' ? 'cancelling' : j.status }));
+  st.dataset.status = j.status;
+  st.title = j.error || '';
+  if (j.error) st.append(Object.assign(document.createElement('div'), { className: 'small error-text', textContent: j.error }));
+  const p = j.progress;
+  const frac = done ? 1 : p.fraction || 0;
+  const fill = tr.querySelector('.fill');
+  fill.style.width = `${(100 * frac).toFixed(1)}%`;
+  fill.className = `fill status-${j.status}`;
+  const eta = j.status === 'running' && p.eta_seconds != null ? ` · ${duration(p.eta_seconds)} left` : '';
+  tr.querySelector('.progress-text').textContent =
+    j.status === 'queued' ? 'waiting' : `${(100 * frac).toFixed(0)} % · ${shortNumber(p.simulated_time)}/${shortNumber(p.duration)} s${eta}`;
+  const cancel = tr.querySelector('.cancel');
+  cancel.hidden = !(j.status === 'queued' || (j.status === 'running' && !j.cancel_requested));
+}
+
+async function cancelJob(id, button) {
+  button.disabled = true;
+  clearErrors(['Authorization']);
+  try {
+    await del(`/jobs/${id}`);
+    $('err-jobs').textContent = '';
+  } catch (e) {
+    $('err-jobs').textContent = `job ${id}: ${e.field ? e.field + ': ' : ''}${e.message}`;
+    if (e.field === 'Authorization') showError(e);
+  } finally {
+    button.disabled = false;
+    pollJobs();
+  }
+}
+
+function updateCompareButton() {
+  const others = [...state.ticked].filter((id) => id !== state.baseline && state.jobs.get(id)?.status === 'done');
+  const ok = state.baseline != null && state.jobs.get(state.baseline)?.status === 'done' && others.length > 0;
+  $('compare-btn').disabled = !ok;
+  $('compare-btn').textContent = ok ? `Compare ${others.length} with #${state.baseline}` : 'Compare ticked with baseline';
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Compare
+
+async function showCompare() {
+  const base = state.baseline;
+  const ids = [...state.ticked].filter((id) => id !== base && state.jobs.get(id)?.status === 'done').sort((a, b) => a - b);
+  const card = $('compare-card');
+  card.hidden = false;
+  card.dataset.ready = 'false';
+  $('err-compare').textContent = '';
+  let c;
+  try {
+    c = await get(`/compare?jobs=${[base, ...ids].join(',')}&baseline=${base}`);
+  } catch (e) {
+    $('err-compare').textContent = `${e.field ? e.field + ': ' : ''}${e.message}`;
+    return;
+  }
+  const jobs = [
+    { id: c.baseline.job, label: c.baseline.label, colour: colourOf(0) },
+    ...c.jobs.map((j, k) => ({ id: j.job, label: j.label, colour: colourOf(k + 1) })),
+  ];
+  $('compare-head').textContent = `baseline #${c.baseline.job} ${c.baseline.label}; ${c.jobs.map((j) => `#${j.job} ${j.label}`).join(', ')}`;
+  renderMetrics(c);
+  card.scrollIntoView({ behavior: 'instant', block: 'start' });
+  await Promise.all([renderCharts(jobs), renderMaps(jobs)]);
+  card.dataset.ready = 'true';
+}
+
+function renderMetrics(c) {
+  const table = $('compare-table');
+  const head = table.tHead;
+  const body = table.tBodies[0];
+  head.replaceChildren();
+  body.replaceChildren();
+  const r1 = document.createElement('tr');
+  const r2 = document.createElement('tr');
+  const th = (text, attrs = {}) => Object.assign(document.createElement('th'), { textContent: text, scope: 'col', ...attrs });
+  r1.append(th('metric', { rowSpan: 2 }), th(`baseline #${c.baseline.job} ${c.baseline.label}`, { rowSpan: 2 }));
+  for (const j of c.jobs) {
+    r1.append(th(`#${j.job} ${j.label}`, { colSpan: 3 }));
+    r2.append(th('value'), th('Δ'), th('Δ %'));
+  }
+  head.append(r1, r2);
+  const td = (v, metric, job, kind, digits) => {
+    const d = document.createElement('td');
+    d.className = 'num';
+    d.textContent = tableNumber(v, digits);
+    d.dataset.metric = metric;
+    d.dataset.job = job;
+    d.dataset.kind = kind;
+    d.dataset.value = v == null ? '' : String(v);
+    if ((kind === 'difference' || kind === 'percent') && v != null && v !== 0) d.classList.add(v > 0 ? 'up' : 'down');
+    return d;
+  };
+  for (const m of c.metrics) {
+    const tr = document.createElement('tr');
+    tr.dataset.metric = m.metric;
+    const differs = m.difference.some((d) => d != null && d !== 0);
+    tr.dataset.differs = differs;
+    tr.append(Object.assign(document.createElement('th'), { scope: 'row', textContent: m.metric }));
+    tr.append(td(m.baseline, m.metric, c.baseline.job, 'baseline', 6));
+    c.jobs.forEach((j, k) => {
+      tr.append(td(m.values[k], m.metric, j.job, 'value', 6), td(m.difference[k], m.metric, j.job, 'difference', 6), td(m.percent[k], m.metric, j.job, 'percent', 4));
+    });
+    body.append(tr);
+  }
+  filterMetrics();
+}
+
+function filterMetrics() {
+  const q = $('metric-filter').value.trim().toLowerCase();
+  const only = $('only-diff').checked;
+  for (const tr of $('compare-table').tBodies[0].rows) {
+    tr.hidden = (q && !tr.dataset.metric.toLowerCase().includes(q)) || (only && tr.dataset.differs !== 'true');
+  }
+}
+
+async function seriesOf(job, name) {
+  const res = await fetch(`${API}/jobs/${job}/series/${encodeURIComponent(name)}.csv`);
+  if (!res.ok) return null;
+  return parseCsv(await res.text());
+}
+
+function column(csv, name) {
+  const k = csv.columns.indexOf(name);
+  return k < 0 ? null : csv.data[k];
+}
+
+async function renderCharts(jobs) {
+  const box = $('charts');
+  clearCharts(box);
+  const metrics = await Promise.all(jobs.map((j) => get(`/jobs/${j.id}/metrics`)));
+  const names = new Set(metrics.flatMap((m) => m.series));
+  const sorted = [...names].sort();
+  const lines = async (series, col) => {
+    const out = [];
+    for (let k = 0; k < jobs.length; k++) {
+      if (!metrics[k].series.includes(series)) continue;
+      const csv = await seriesOf(jobs[k].id, series);
+      const y = csv && column(csv, col);
+      if (!y) continue;
+      out.push({ label: `#${jobs[k].id} ${jobs[k].label}`, colour: jobs[k].colour, x: column(csv, 't'), y });
+    }
+    return out;
+  };
+  const chart = async (id, title, series, col, yLabel) => {
+    const l = await lines(series, col);
+    if (l.length) lineChart(box, { id, title, xLabel: 't [s]', yLabel, lines: l });
+  };
+  for (const s of sorted.filter((n) => n.startsWith('section_')))
+    await chart(s, `Hydrograph at ${s.slice(8)}`, s, 'discharge_m3_s', 'discharge [m³/s]');
+  for (const s of sorted.filter((n) => n.startsWith('structure_load_'))) {
+    const name = s.slice(15);
+    await chart(`${s}:force`, `Force on ${name}`, s, 'force_n', 'force [N]');
+    await chart(`${s}:pressure`, `Peak pressure on ${name}`, s, 'peak_pressure_pa', 'pressure [Pa]');
+  }
+  if (names.has('run')) await chart('front', 'Front position', 'run', 'front_x', 'front x [m]');
+  if (!box.children.length) box.append(Object.assign(document.createElement('p'), { className: 'muted', textContent: 'no series to plot' }));
+}
+
+async function renderMaps(jobs) {
+  const box = $('maps');
+  box.replaceChildren();
+  await Promise.all(jobs.map((j) => drawMap(box, j)));
+}
+
+// ---------------------------------------------------------------------------------------------------------
+
+function wire() {
+  $('token').value = token();
+  $('token').addEventListener('input', () => {
+    setToken($('token').value.trim());
+    scheduleEstimate();
+  });
+  $('scene-select').addEventListener('change', () => pickScene().catch((e) => showError(e)));
+  $('structure-list').addEventListener('change', scheduleEstimate);
+  for (const r of document.querySelectorAll('input[name=mode]'))
+    r.addEventListener('change', () => {
+      const sweep = mode() === 'factorial';
+      $('field-name').hidden = !sweep;
+      $('field-variant').hidden = sweep;
+      $('submit-btn').textContent = sweep ? 'Submit the sweep' : 'Submit';
+      scheduleEstimate();
+    });
+  $('fidelity').addEventListener('change', () => {
+    $('dp').hidden = $('fidelity').value !== 'custom';
+    scheduleEstimate();
+  });
+  for (const id of ['dp', 'variant', 'sweep-name', 'sweep-prefix']) $(id).addEventListener('input', scheduleEstimate);
+  $('job-form').addEventListener('submit', submit);
+  $('scene-store').addEventListener('click', storeScene);
+  $('scene-file').addEventListener('change', async () => {
+    const f = $('scene-file').files[0];
+    if (f) $('scene-json').value = await f.text();
+  });
+  $('compare-btn').addEventListener('click', showCompare);
+  $('metric-filter').addEventListener('input', filterMetrics);
+  $('only-diff').addEventListener('change', filterMetrics);
+}
+
+wire();
+loadHealth();
+loadScenes().catch((e) => showError(e));
+pollJobs();
