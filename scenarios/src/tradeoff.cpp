@@ -118,6 +118,20 @@ std::optional<double> observed_order(double dp1, double f1, double dp2, double f
   return 0.5 * (lo + hi);
 }
 
+namespace {
+
+// A level's value of a metric; nullopt when it lacks it or when it says "never": an arrival time of -1 (the
+// flow did not reach the section or zone at that resolution) is not a time to compare.
+std::optional<double> metric_value(const TradeoffLevel& l, const std::string& name) {
+  const auto it = l.metrics.find(name);
+  if (it == l.metrics.end()) return std::nullopt;
+  const bool arrival = name.size() >= 14 && name.compare(name.size() - 14, 14, "arrival_time_s") == 0;
+  if (arrival && it->second < 0) return std::nullopt;
+  return it->second;
+}
+
+}  // namespace
+
 void analyse_tradeoff(TradeoffResult& r) {
   r.metrics.clear();
   std::vector<size_t> ladder;
@@ -125,32 +139,34 @@ void analyse_tradeoff(TradeoffResult& r) {
     if (r.levels[k].option.empty() && r.levels[k].status == "completed") ladder.push_back(k);
   if (ladder.empty()) return;
   const TradeoffLevel& finest = r.levels[ladder.back()];
-  for (const auto& [name, ref] : finest.metrics) {
+  for (const auto& entry : finest.metrics) {
+    const std::string& name = entry.first;
     if (!is_result_metric(name)) continue;
+    const std::optional<double> ref = metric_value(finest, name);
+    if (!ref) continue;  // the finest level says "never": nothing to converge to
     TradeoffMetric m;
     m.name = name;
-    m.finest = ref;
+    m.finest = *ref;
     for (const auto& l : r.levels) {
-      const auto it = l.metrics.find(name);
-      if (it == l.metrics.end() || ref == 0 || l.status != "completed")
+      const auto v = metric_value(l, name);
+      if (!v || *ref == 0 || l.status != "completed")
         m.deviation_percent.emplace_back();
       else
-        m.deviation_percent.emplace_back(100.0 * (it->second - ref) / std::abs(ref));
+        m.deviation_percent.emplace_back(100.0 * (*v - *ref) / std::abs(*ref));
     }
     if (ladder.size() >= 3) {
       const auto& a = r.levels[ladder[ladder.size() - 3]];
       const auto& b = r.levels[ladder[ladder.size() - 2]];
-      const auto ia = a.metrics.find(name), ib = b.metrics.find(name);
-      if (ia != a.metrics.end() && ib != b.metrics.end())
-        m.order = observed_order(a.dp, ia->second, b.dp, ib->second, finest.dp, ref);
+      const auto va = metric_value(a, name), vb = metric_value(b, name);
+      if (va && vb) m.order = observed_order(a.dp, *va, b.dp, *vb, finest.dp, *ref);
     }
     // The coarsest rung from which every finer rung is within the tolerance of the finest.
     for (const double tol : {5.0, 10.0}) {
       double dp = finest.dp;
       for (size_t i = ladder.size() - 1; i-- > 0;) {
         const auto& l = r.levels[ladder[i]];
-        const auto it = l.metrics.find(name);
-        if (it == l.metrics.end() || std::abs(it->second - ref) > tol / 100.0 * std::abs(ref)) break;
+        const auto v = metric_value(l, name);
+        if (!v || std::abs(*v - *ref) > tol / 100.0 * std::abs(*ref)) break;
         dp = l.dp;
       }
       (tol == 5.0 ? m.dp_within_5 : m.dp_within_10) = dp;
@@ -234,6 +250,17 @@ TradeoffResult run_tradeoff(RunStore& store, const TradeoffSpec& spec, const Tra
     const CostPrediction pred = model.predict(cost_features(scene), threads > 0 ? threads : omp_get_max_threads());
     L.predicted_steps = pred.steps;
     L.predicted_seconds = pred.seconds;
+    if (opt.predict_only) {
+      L.fluid = cost_features(scene).fluid;
+      L.boundary = pred.particles - L.fluid;
+      L.build_seconds = p.build_seconds;
+      p.scene.reset();
+      if (opt.on_line)
+        opt.on_line(L.label + ": " + fmt(pred.particles, "%.0f") + " particles, predicted " + fmt(pred.steps, "%.0f") +
+                    " steps, " + fmt(pred.seconds, "%.0f") + " s");
+      result.levels.push_back(std::move(L));
+      continue;
+    }
     const Manifest manifest = make_manifest(p.resolved, spec.base_dir, p.fidelity);
     std::optional<int64_t> id;
     if (const auto found = store.find_run(manifest.hash)) {

@@ -471,6 +471,8 @@ int main(int argc, char** argv) {
   tradeoff->add_option("--out,-o", tradeoff_cmd.out_dir, "levels.csv, metrics.csv, tradeoff.svg and each level's outputs "
                                                          "(default runs/tradeoff/<name>)");
   tradeoff->add_option("--db", tradeoff_cmd.db, "Run store (SQLite); stored levels are reused")->capture_default_str();
+  tradeoff->add_flag("--predict-only", tradeoff_cmd.predict_only,
+                     "Build each level and print its particles and the cost model's steps and time; run nothing");
 
   runout::service::CalibrateCommand calibrate_cmd;
   auto* calibrate = app.add_subcommand("calibrate", "Fit the cost model to the completed runs of a store; print "

@@ -413,8 +413,8 @@ void Server::Impl::setup_routes() {
                {"seconds_estimate", p.seconds},
                {"model",
                 {{"formula", "steps = ceil(step_ratio * duration / dt0); seconds = steps * (a_fluid * fluid_mean * "
-                             "neighbours * passes + b_boundary * boundary + c_step) / (1 + parallel_efficiency * "
-                             "(threads - 1))"},
+                             "neighbours * passes + b_boundary * boundary + c_step) / speedup; speedup = 1 + "
+                             "parallel_efficiency * fluid_mean / (fluid_mean + parallel_half_fluid) * (threads - 1)"},
                  {"duration_s", spec.cost.duration},
                  {"dt_s", spec.cost.dt0},
                  {"fluid_mean", spec.cost.fluid_mean},
@@ -427,6 +427,8 @@ void Server::Impl::setup_routes() {
                  {"c_step_s", k.c_step},
                  {"threads", threads},
                  {"parallel_efficiency", model.parallel_efficiency},
+                 {"parallel_half_fluid", model.parallel_half_fluid},
+                 {"speedup", p.speedup},
                  {"seconds_per_step", p.seconds_per_step},
                  {"note", "calibrated on measured runs of the shipped scenes; how well it predicts: docs/tradeoff.md"}}}});
   });

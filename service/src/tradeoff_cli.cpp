@@ -97,6 +97,7 @@ int run_tradeoff_command(const TradeoffCommand& c, const std::atomic<bool>* stop
   opt.out_dir = c.out_dir.empty() ? fs::path("runs") / "tradeoff" / safe_name(spec.name) : fs::path(c.out_dir);
   opt.threads = c.threads;
   opt.stop = stop;
+  opt.predict_only = c.predict_only;
   opt.on_line = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   TradeoffResult result;
   try {
@@ -107,6 +108,10 @@ int run_tradeoff_command(const TradeoffCommand& c, const std::atomic<bool>* stop
   } catch (const std::exception& e) {
     spdlog::error("tradeoff: {}", e.what());
     return 1;
+  }
+  if (c.predict_only) {  // the levels' sizes and predicted costs only
+    std::printf("%s", format_tradeoff(result).c_str());
+    return 0;
   }
   std::printf("%s", format_tradeoff(result).c_str());
   std::fflush(stdout);
@@ -171,6 +176,7 @@ int run_calibrate_command(const CalibrateCommand& c) {
                     {"two_d", coef(fitted.two_d)},
                     {"three_d", coef(fitted.three_d)},
                     {"parallel_efficiency", fitted.parallel_efficiency},
+                    {"parallel_half_fluid", fitted.parallel_half_fluid},
                     {"worst_error_percent_shipped", worst_shipped},
                     {"worst_error_percent_leave_one_out", worst_loo}};
   std::printf("\nfitted on %zu runs: %s\n", runs.size(), out.dump().c_str());

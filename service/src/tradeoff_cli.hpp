@@ -16,6 +16,7 @@ struct TradeoffCommand {
   int threads = 0;
   std::string out_dir;               // default runs/tradeoff/<name>
   std::string db = "runout.db";
+  bool predict_only = false;
 };
 int run_tradeoff_command(const TradeoffCommand& c, const std::atomic<bool>* stop);
 

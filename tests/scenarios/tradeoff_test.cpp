@@ -91,6 +91,26 @@ TEST(AnalyseTradeoff, DeviationsOrderAndTheCoarsestRungWithinTolerance) {
   EXPECT_DOUBLE_EQ(*t->dp_within_10, 0.04);
 }
 
+// An arrival time of -1 says the flow never arrived at that rung: not a time, so no deviation, and that rung
+// is not "within" any tolerance; a metric that never arrives at the finest rung is left out.
+TEST(AnalyseTradeoff, NeverArrivedIsMissingNotMinusOneSecond) {
+  TradeoffResult r;
+  r.levels.push_back(level(0.05, {{"terrain.protected_zones.Village.arrival_time_s", -1},
+                                  {"monitors.S9.arrival_time_s", -1}}));
+  r.levels.push_back(level(0.04, {{"terrain.protected_zones.Village.arrival_time_s", 2.05},
+                                  {"monitors.S9.arrival_time_s", -1}}));
+  r.levels.push_back(level(0.03, {{"terrain.protected_zones.Village.arrival_time_s", 2.0},
+                                  {"monitors.S9.arrival_time_s", -1}}));
+  analyse_tradeoff(r);
+  ASSERT_EQ(r.metrics.size(), 1u);
+  const TradeoffMetric& m = r.metrics[0];
+  EXPECT_EQ(m.name, "terrain.protected_zones.Village.arrival_time_s");
+  EXPECT_FALSE(m.deviation_percent[0].has_value());
+  EXPECT_NEAR(*m.deviation_percent[1], 2.5, 1e-9);
+  EXPECT_FALSE(m.order.has_value());
+  EXPECT_DOUBLE_EQ(*m.dp_within_5, 0.04);
+}
+
 TEST(IsResultMetric, ResultsAreMonitorsInundationZonesRetentionAndFront) {
   EXPECT_TRUE(is_result_metric("monitors.S1.peak_discharge_m3_s"));
   EXPECT_TRUE(is_result_metric("terrain.inundation.area_m2"));
@@ -222,5 +242,35 @@ TEST(RunTradeoff, LadderIsStoredReusedAndReported) {
     EXPECT_EQ(again.levels[k].run_id, r.levels[k].run_id);
   }
   EXPECT_EQ(store.list_runs("tradeoff:tiny").size(), 4u);
+  fs::remove_all(dir);
+}
+
+// --predict-only: every level built and priced by the cost model, nothing run or stored.
+TEST(RunTradeoff, PredictOnlyPricesEveryLevelAndRunsNothing) {
+  const fs::path dir = fresh_dir("predict");
+  RunStore store((dir / "runout.db").string());
+  TradeoffSpec spec;
+  spec.name = "tiny";
+  spec.base_json = dam_break();
+  spec.levels = {"draft", "standard", "fine"};
+  TradeoffRunOptions opt;
+  opt.out_dir = dir / "out";
+  opt.threads = 1;
+  opt.predict_only = true;
+  const TradeoffResult r = run_tradeoff(store, spec, opt);
+  ASSERT_EQ(r.levels.size(), 3u);
+  for (const auto& l : r.levels) {
+    EXPECT_EQ(l.status, "not run");
+    EXPECT_NEAR(l.fluid, std::pow(0.2 / l.dp, 2), 0.5);
+    EXPECT_GT(l.boundary, 0);
+    EXPECT_GT(l.predicted_steps, 0);
+    EXPECT_EQ(l.steps, 0);
+  }
+  // Finer costs more: more particles and more steps.
+  EXPECT_GT(r.levels[1].predicted_seconds, 2 * r.levels[0].predicted_seconds);
+  EXPECT_GT(r.levels[2].predicted_seconds, 2 * r.levels[1].predicted_seconds);
+  EXPECT_TRUE(r.metrics.empty());
+  EXPECT_TRUE(store.list_runs().empty());
+  EXPECT_FALSE(fs::exists(dir / "out"));
   fs::remove_all(dir);
 }

@@ -4,14 +4,17 @@
 //
 //   steps          = k_D * duration / dt0
 //   dt0            = min(cfl h / c0, 0.125 h^2 / nu_max, cfl sqrt(h / g))        (the engine's limits at rest)
-//   seconds/step   = (a_D * fluid_mean * (h/dp)^D * passes + b_D * boundary + c_D) / speedup(threads)
+//   seconds/step   = (a_D * fluid_mean * (h/dp)^D * passes + b_D * boundary + c_D) / speedup
+//   speedup        = 1 + e * fluid_mean / (fluid_mean + N_half) * (threads - 1)
 //
 // fluid_mean is the flow particles averaged over the run (inlets add theirs as they enter), (h/dp)^D scales
 // the neighbours each one visits, passes is 2 when a material carries a stress (velocity gradient, then
 // stress divergence) and 1 for inviscid water; boundary is every boundary particle (their cell sorting is
 // per step; only those next to the flow do pair work, which the fluid term carries). k_D takes up what
-// the rest state does not see (flow speed in the acoustic limit, the force limit of impacts). The
-// coefficients are fitted by least squares on relative error from stored runs (`runout calibrate`).
+// the rest state does not see (flow speed in the acoustic limit, the force limit of impacts). A small run
+// gains little from a second thread (a step of 300 fluid particles is mostly fork-join overhead), hence the
+// speed-up saturating in the fluid count. The coefficients are fitted by least squares on relative error
+// from stored one-thread runs (`runout calibrate`); e and N_half come from one- against two-thread runs.
 #include <string>
 #include <vector>
 
@@ -48,7 +51,9 @@ struct CostPrediction {
 
 struct CostModel {
   CostCoefficients two_d, three_d;
-  double parallel_efficiency = 0.9;  // of each thread after the first
+  double parallel_efficiency = 0.9;     // e: of each thread after the first, for a large run
+  double parallel_half_fluid = 380;     // N_half: the fluid count at which a thread gives half of e
+  double speedup(const CostFeatures& f, int threads) const;
   // The coefficients fitted on this project's measurements (the figures and the command: docs/tradeoff.md).
   static CostModel calibrated();
   CostPrediction predict(const CostFeatures& f, int threads) const;

@@ -34,6 +34,7 @@ struct TradeoffRunOptions {
   std::filesystem::path out_dir = "runs/tradeoff";  // a level's outputs go to OUT/<label>
   int threads = 0;                                    // OpenMP threads (0: all cores)
   const std::atomic<bool>* stop = nullptr;
+  bool predict_only = false;                          // build each level and predict its cost; run nothing
   std::function<void(const std::string&)> on_line;    // progress lines for people
 };
 
