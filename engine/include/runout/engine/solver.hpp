@@ -177,6 +177,8 @@ class Solver {
   void evaluate_rates();
   const std::array<std::vector<real>, D>& fluid_acceleration() const { return acc_; }
   const std::vector<real>& fluid_density_rate() const { return drho_; }
+  // DBC continuity rate of boundary particles (0 for those with no flow near them).
+  const std::vector<real>& boundary_density_rate() const { return boundary_drho_; }
 
  private:
   struct Impl;
