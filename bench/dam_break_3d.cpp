@@ -1,6 +1,7 @@
 // 3D dam break on a pillar (DualSPHysics CaseDambreak geometry, scenarios/validation/dam_break_3d.json):
 // particle-steps per second at several resolutions, OpenMP scaling 1 -> N threads, and the cost of a
-// friction-HBP step relative to a Newtonian one.
+// friction-HBP step relative to a Newtonian one, and what switching artificial viscosity and density diffusion
+// off saves.
 //
 //   build/bench/bench_dam_break_3d [--dp 0.016,0.012,0.0085] [--steps 200] [--warmup 20] [--threads 2]
 //
@@ -112,5 +113,29 @@ int main(int argc, char** argv) {
   }
   for (const auto& [label, r] : results)
     std::printf("  %-42s %10.3e fluid p-s/s   %.2fx\n", label, r.fluid_rate(), r.seconds / newtonian_time);
+
+  // Terms a scene switches off cost nothing: artificial viscosity and density diffusion off, one at a time
+  // (inviscid water, same steps), time per step relative to the benchmark's own settings.
+  std::printf("\nTerms switched off at dp = %.4f m, %d threads (time per step relative to alpha 0.1 + Fourtakas):\n", dp,
+              max_threads);
+  struct Terms {
+    const char* label;
+    double alpha;
+    const char* diffusion;
+  };
+  const std::vector<Terms> terms = {{"alpha 0.1, Fourtakas 0.1 (benchmark)", 0.1, "fourtakas"},
+                                    {"alpha 0 (no artificial viscosity)", 0.0, "fourtakas"},
+                                    {"no density diffusion", 0.1, "none"},
+                                    {"neither", 0.0, "none"}};
+  double full_time = 0;
+  for (const auto& t : terms) {
+    json s = base;
+    s["dp"] = dp;
+    s["numerics"]["artificial_viscosity"] = t.alpha;
+    s["numerics"]["density_diffusion"] = t.diffusion;
+    const Result r = measure(s, max_threads, warmup, steps);
+    if (full_time == 0) full_time = r.seconds;
+    std::printf("  %-42s %10.3e fluid p-s/s   %.2fx\n", t.label, r.fluid_rate(), r.seconds / full_time);
+  }
   return 0;
 }

@@ -64,6 +64,7 @@ template <int D>
 struct Solver<D>::Impl {
   struct Block {
     uint32_t begin, end, shift;
+    uint32_t cell0, cell1;  // the cells (indices into the key array) the run covers
   };
   static constexpr int kReach = 2;
   static constexpr int kSpan = 2 * kReach + 1;
@@ -75,16 +76,39 @@ struct Solver<D>::Impl {
 
   std::vector<uint64_t> fcell_key;
   std::vector<uint32_t> fcell_begin;  // size cells + 1
-  std::vector<Block> fnb_fluid, fnb_bound;  // stride kNb per fluid cell
-  std::vector<uint8_t> fnb_fluid_n, fnb_bound_n;
+  std::vector<Block> fnb_bound;  // boundary columns, stride kNb per fluid cell
+  std::vector<uint8_t> fnb_bound_n;
 
   std::vector<uint64_t> bcell_key;
   std::vector<uint32_t> bcell_begin;
   std::vector<uint32_t> bcell_stamp;
   uint32_t stamp = 0;
   std::vector<uint32_t> active_bcells;
-  std::vector<Block> bnb_fluid;  // stride kNb per active boundary cell
-  std::vector<uint8_t> bnb_fluid_n;
+  // Active boundary particles (those in active cells) numbered 0.. in active-cell order: bslot[b] is valid
+  // for them only. Per-thread boundary accumulators are this long, not the whole boundary's length.
+  std::vector<uint32_t> bslot;
+  size_t active_boundary_count = 0;
+
+  // Half stencil of fluid columns (the own column first, then those after it: each pair once), stride kHalf.
+  static constexpr int kHalf = kNb / 2 + 1;
+  std::vector<Block> fnb_half;
+  std::vector<uint8_t> fnb_half_n;
+
+  // Pair lists (see evaluate), per thread, and per fluid particle where its list is.
+  std::vector<std::vector<uint32_t>> list_buf;
+  std::vector<uint32_t> list_off, list_nf, list_nb;
+  std::vector<uint16_t> list_thread;
+  // Per-thread accumulators of the pair passes.
+  std::vector<std::vector<real>> acc_f, acc_b;
+  // Per particle, once per evaluation rather than per pair: volume m / rho and p / rho^2 (fluid; boundary:
+  // the active ones).
+  std::vector<real> vol, pt, inv_rho, bvol, bpt;
+  // What a pair loop reads of its neighbour j, packed in one 64-byte record per fluid particle (one cache
+  // line instead of one per array): velocity, rho, m / rho, p / rho^2, p (pass 1) or mu_eff (pass 2), 1 / rho.
+  static constexpr int kPackStride = 8, kPackRho = D, kPackVol = D + 1, kPackPt = D + 2, kPackPm = D + 3,
+                       kPackInvRho = D + 4;
+  static_assert(kPackInvRho < kPackStride);
+  std::vector<real> neighbour_pack;
 
   std::vector<std::pair<uint64_t, uint32_t>> sort_buf;
   std::vector<real> scratch_real;
@@ -116,9 +140,10 @@ struct Solver<D>::Impl {
     return c;
   }
   // Column block o (0..kNb-1) around cell c within the cells `keys` (sorted, with particle offsets `begin`):
-  // false when the column holds no particles.
+  // false when the column holds no particles. `hint` is where the same column of the previous cell started:
+  // cells are visited in key order, so the search gallops forward from there (a binary search otherwise).
   bool column(const std::vector<uint64_t>& keys, const std::vector<uint32_t>& begin, const std::array<int64_t, D>& c,
-              int o, Block& out) const {
+              int o, Block& out, size_t& hint) const {
     std::array<int64_t, D> lo = c, hi = c;
     uint32_t shift = 0;
     int rem = o, pw = 1;
@@ -141,10 +166,26 @@ struct Solver<D>::Impl {
     }
     lo[D - 1] = c[D - 1] - kReach;
     hi[D - 1] = c[D - 1] + kReach;
-    const auto k0 = std::lower_bound(keys.begin(), keys.end(), pack(lo)) - keys.begin();
-    const auto k1 = std::upper_bound(keys.begin() + k0, keys.end(), pack(hi)) - keys.begin();
+    const uint64_t key_lo = pack(lo), key_hi = pack(hi);
+    const size_t nk = keys.size();
+    size_t a = 0, b = nk;  // keys[a - 1] < key_lo <= keys[b] (as far as known)
+    if (hint < nk && keys[hint] < key_lo) {
+      size_t step = 1;
+      a = hint + 1;
+      while (a + step - 1 < nk && keys[a + step - 1] < key_lo) {
+        a += step;
+        step *= 2;
+      }
+      b = std::min(nk, a + step - 1);
+    } else if (hint < nk) {
+      b = hint;
+    }
+    const size_t k0 = std::lower_bound(keys.begin() + a, keys.begin() + b, key_lo) - keys.begin();
+    hint = k0;
+    size_t k1 = k0;
+    while (k1 < nk && keys[k1] <= key_hi) ++k1;  // at most 2 kReach + 1 cells
     if (k0 >= k1) return false;
-    out = {begin[k0], begin[k1], shift};
+    out = {begin[k0], begin[k1], shift, static_cast<uint32_t>(k0), static_cast<uint32_t>(k1)};
     return true;
   }
 };
@@ -383,21 +424,28 @@ void Solver<D>::sort_and_build_cells() {
   I.fcell_begin.push_back(static_cast<uint32_t>(keep));
   const size_t ncells = I.fcell_key.size();
   constexpr int kNb = Impl::kNb;
-  I.fnb_fluid.resize(ncells * kNb);
+  constexpr int kHalf = Impl::kHalf;
+  constexpr int kCentre = kNb / 2;  // the cell's own column
+  I.fnb_half.resize(ncells * kHalf);
   I.fnb_bound.resize(ncells * kNb);
-  I.fnb_fluid_n.assign(ncells, 0);
+  I.fnb_half_n.assign(ncells, 0);
   I.fnb_bound_n.assign(ncells, 0);
-#pragma omp parallel for schedule(static)
-  for (size_t c = 0; c < ncells; ++c) {
-    const auto cc = Impl::unpack(I.fcell_key[c]);
-    int nf = 0, nbnd = 0;
-    typename Impl::Block blk;
-    for (int o = 0; o < kNb; ++o) {
-      if (I.column(I.fcell_key, I.fcell_begin, cc, o, blk)) I.fnb_fluid[c * kNb + nf++] = blk;
-      if (I.column(I.bcell_key, I.bcell_begin, cc, o, blk)) I.fnb_bound[c * kNb + nbnd++] = blk;
+#pragma omp parallel
+  {
+    std::array<size_t, kNb> fhint{}, bhint{};
+#pragma omp for schedule(static)
+    for (size_t c = 0; c < ncells; ++c) {
+      const auto cc = Impl::unpack(I.fcell_key[c]);
+      int nf = 0, nbnd = 0;
+      typename Impl::Block blk;
+      // Column o has horizontal offsets (o % 5 - 2, o / 5 - 2): o > kCentre is the half after the own column.
+      for (int o = kCentre; o < kNb; ++o)
+        if (I.column(I.fcell_key, I.fcell_begin, cc, o, blk, fhint[o])) I.fnb_half[c * kHalf + nf++] = blk;
+      for (int o = 0; o < kNb; ++o)
+        if (I.column(I.bcell_key, I.bcell_begin, cc, o, blk, bhint[o])) I.fnb_bound[c * kNb + nbnd++] = blk;
+      I.fnb_half_n[c] = static_cast<uint8_t>(nf);
+      I.fnb_bound_n[c] = static_cast<uint8_t>(nbnd);
     }
-    I.fnb_fluid_n[c] = static_cast<uint8_t>(nf);
-    I.fnb_bound_n[c] = static_cast<uint8_t>(nbnd);
   }
 
   // Boundary cells next to fluid: the only boundary particles that do work this step. Boundary blocks are
@@ -407,8 +455,7 @@ void Solver<D>::sort_and_build_cells() {
   for (size_t c = 0; c < ncells; ++c) {
     for (int k = 0; k < I.fnb_bound_n[c]; ++k) {
       const auto& blk = I.fnb_bound[c * kNb + k];
-      auto cb = std::upper_bound(I.bcell_begin.begin(), I.bcell_begin.end(), blk.begin) - I.bcell_begin.begin() - 1;
-      for (; cb + 1 < static_cast<int64_t>(I.bcell_begin.size()) && I.bcell_begin[cb] < blk.end; ++cb) {
+      for (uint32_t cb = blk.cell0; cb < blk.cell1; ++cb) {
         if (I.bcell_stamp[cb] != I.stamp) {
           I.bcell_stamp[cb] = I.stamp;
           I.active_bcells.push_back(static_cast<uint32_t>(cb));
@@ -416,18 +463,11 @@ void Solver<D>::sort_and_build_cells() {
       }
     }
   }
-  const size_t nact = I.active_bcells.size();
-  I.bnb_fluid.resize(nact * kNb);
-  I.bnb_fluid_n.assign(nact, 0);
-#pragma omp parallel for schedule(static)
-  for (size_t a = 0; a < nact; ++a) {
-    const auto cc = Impl::unpack(I.bcell_key[I.active_bcells[a]]);
-    int nf = 0;
-    typename Impl::Block blk;
-    for (int o = 0; o < kNb; ++o)
-      if (I.column(I.fcell_key, I.fcell_begin, cc, o, blk)) I.bnb_fluid[a * kNb + nf++] = blk;
-    I.bnb_fluid_n[a] = static_cast<uint8_t>(nf);
-  }
+  I.bslot.resize(boundary_.size());
+  uint32_t slot = 0;
+  for (uint32_t cb : I.active_bcells)
+    for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b) I.bslot[b] = slot++;
+  I.active_boundary_count = slot;
 
   // Work arrays follow the (possibly smaller) particle count.
   for (int d = 0; d < D; ++d) acc_[d].resize(keep);
@@ -441,24 +481,84 @@ void Solver<D>::sort_and_build_cells() {
   zero_pressure_.resize(keep);
 }
 
-// The interaction kernels. Templated on the kernel and on whether the stress term exists, so the pair
-// loops carry no runtime model switches.
-namespace detail {
+namespace {
 
+// |x - q_k|^2 for a contiguous run of particles (SoA): a plain vector loop.
+void distances_squared3(const real* __restrict a, const real* __restrict b, const real* __restrict c, real xa, real xb,
+                        real xc, uint32_t m, real* __restrict out) {
+  for (uint32_t k = 0; k < m; ++k) {
+    const real da = xa - a[k], db = xb - b[k], dc = xc - c[k];
+    out[k] = da * da + db * db + dc * dc;
+  }
+}
+void distances_squared2(const real* __restrict a, const real* __restrict b, real xa, real xb, uint32_t m,
+                        real* __restrict out) {
+  for (uint32_t k = 0; k < m; ++k) {
+    const real da = xa - a[k], db = xb - b[k];
+    out[k] = da * da + db * db;
+  }
+}
+
+// Pair geometry of list entries [q0, q1) of a particle at x with density rho_i (no periodic axes): separations,
+// r^2, r, inv = 1 / (r (r^2 + eta^2) (rho_i + rho_j)) and F. A vector loop (gathers).
+template <int D, class Kernel>
+void pair_geometry(const Kernel& kernel, const uint32_t* __restrict list, uint32_t q0, uint32_t q1,
+                   const real* __restrict qa, const real* __restrict qb, const real* __restrict qc,
+                   const real* __restrict rhoq, real xa, real xb, real xc, real rhoi, real eta2, real* __restrict da,
+                   real* __restrict db, real* __restrict dc, real* __restrict r2o, real* __restrict ro,
+                   real* __restrict invo, real* __restrict Fo) {
+  for (uint32_t q = q0; q < q1; ++q) {
+    const uint32_t j = list[q];
+    const real a = xa - qa[j], b = xb - qb[j];
+    real r2 = a * a + b * b;
+    da[q] = a;
+    db[q] = b;
+    if constexpr (D == 3) {
+      const real c = xc - qc[j];
+      r2 += c * c;
+      dc[q] = c;
+    }
+    const real r = std::sqrt(r2), e = r2 + eta2, rs = rhoi + rhoq[j];
+    const real inv = 1.0 / (r * e * rs);
+    r2o[q] = r2;
+    ro[q] = r;
+    invo[q] = inv;
+    Fo[q] = kernel.grad_factor_in_support(r, inv * e * rs);
+  }
+}
+
+// One particle's pair list, worked out before its force loop (see prepare() in evaluate).
 template <int D>
-struct PairContext {
-  real h, support2, eta2, c0, alpha, ddt_coef;  // ddt_coef = 2 delta h c0 (0: off)
-  bool fourtakas;
-  Vec<D> g;
-  real inv_c0_sq;
+struct PairGeometry {
+  std::array<std::vector<real>, D> dx;
+  std::vector<real> r2, r, inv, F;
+  void ensure(size_t n) {
+    if (r2.size() >= n) return;
+    const size_t m = std::max<size_t>({n, 2 * r2.size(), 256});
+    for (auto& v : dx) v.resize(m);
+    r2.resize(m);
+    r.resize(m);
+    inv.resize(m);
+    F.resize(m);
+  }
 };
 
-}  // namespace detail
+}  // namespace
 
+// The interaction kernels. Templated on the kernel and on whether the stress term exists, so the pair
+// loops carry no runtime model switches.
+//
+// Pairs: each evaluation first lists, for every fluid particle i, its fluid neighbours j > i in the half
+// stencil (the own column with higher indices, and the columns "after" it), so each fluid pair is listed
+// once, then all its boundary neighbours. The listing test is branch-free. The passes then walk the lists and
+// apply each pair's term to both particles (the terms are antisymmetric or symmetric in i and j); the j side
+// and the boundary side go to per-thread accumulators, summed after the pass, so no two threads write the
+// same memory and no pair is evaluated twice.
 template <int D>
 void Solver<D>::evaluate(bool compute_dt) {
   auto& I = *impl_;
   constexpr int kNb = Impl::kNb;
+  constexpr int kHalf = Impl::kHalf;
   const size_t n = fluid_.size();
   const size_t ncells = I.fcell_key.size();
   const real h = config_.smoothing_length;
@@ -475,6 +575,7 @@ void Solver<D>::evaluate(bool compute_dt) {
   const real contact2 = kWallContact * kWallContact * config_.dp * config_.dp;
   // Slip speed below which basal Coulomb friction is proportional to the slip (regularisation).
   const real v_slip = 0.01 * std::sqrt(9.81 * config_.dp);
+  const int nthreads = omp_get_max_threads();
 
   bool viscous = false;
   for (const auto& r : rheologies_) viscous = viscous || !r->is_inviscid();
@@ -502,14 +603,30 @@ void Solver<D>::evaluate(bool compute_dt) {
     }
     return b * (xg - 1.0);
   };
+  I.vol.resize(n);
+  I.pt.resize(n);
+  I.inv_rho.resize(n);
+  I.neighbour_pack.resize(Impl::kPackStride * n);
 #pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; ++i) {
     const int k = fluid_.material[i];
-    pressure_[i] = std::max(tait(fluid_.rho[i], rho0[k], B[k]), p_min[k]);
+    const real r = fluid_.rho[i];
+    pressure_[i] = std::max(tait(r, rho0[k], B[k]), p_min[k]);
+    I.inv_rho[i] = 1.0 / r;
+    I.vol[i] = fluid_.mass[i] * I.inv_rho[i];
+    I.pt[i] = pressure_[i] * I.inv_rho[i] * I.inv_rho[i];
+    real* pk = I.neighbour_pack.data() + Impl::kPackStride * i;
+    for (int d = 0; d < D; ++d) pk[d] = fluid_.vel[d][i];
+    pk[Impl::kPackRho] = r;
+    pk[Impl::kPackVol] = I.vol[i];
+    pk[Impl::kPackPt] = I.pt[i];
+    pk[Impl::kPackPm] = pressure_[i];
+    pk[Impl::kPackInvRho] = I.inv_rho[i];
   }
   const real rho0_b = config_.boundary_density;
   const real B_b = c0 * c0 * rho0_b / gam;
   const size_t nact = I.active_bcells.size();
+  const size_t nslots = I.active_boundary_count;
   const bool extrapolated = config_.boundary_pressure == BoundaryPressure::extrapolated;
   if (!extrapolated) {
 #pragma omp parallel for schedule(static)
@@ -522,13 +639,27 @@ void Solver<D>::evaluate(bool compute_dt) {
 
   real max_acc = 0, max_visc_term = 0, max_nu = 0;
 
+  I.list_buf.resize(nthreads);
+  I.list_off.resize(n);
+  I.list_nf.resize(n);
+  I.list_nb.resize(n);
+  I.list_thread.resize(n);
+  I.acc_f.resize(nthreads);
+  I.acc_b.resize(nthreads);
+  I.bvol.resize(boundary_.size());
+  I.bpt.resize(boundary_.size());
+
   // kViscous: the scene has a stress term (pass 1 measures the velocity gradient first); without one,
-  // continuity and momentum share a single neighbour pass.
+  // continuity and momentum share a single pass over the pairs.
   auto interact = [&]<bool kViscous>(auto kernel) {
     const real support2 = kernel.support() * kernel.support();
-    const auto& P = fluid_.pos;
-    const auto& V = fluid_.vel;
-    const auto& BP = boundary_.pos;
+    // Raw pointers held in locals: the compiler need not reload them after every accumulator store.
+    std::array<const real*, D> P, V, BP;
+    for (int d = 0; d < D; ++d) {
+      P[d] = fluid_.pos[d].data();
+      V[d] = fluid_.vel[d].data();
+      BP[d] = boundary_.pos[d].data();
+    }
     const real* mass = fluid_.mass.data();
     const real* rho = fluid_.rho.data();
     const uint16_t* mat = fluid_.material.data();
@@ -536,127 +667,325 @@ void Solver<D>::evaluate(bool compute_dt) {
     const real* bmass = boundary_.mass.data();
     const real* brho = boundary_.rho.data();
     const real* bpress = boundary_pressure_.data();
+    const uint32_t* bslot = I.bslot.data();
+    const real* vol = I.vol.data();
+    const real* pt = I.pt.data();
+    const real* inv_rho = I.inv_rho.data();
+    const real* pack = I.neighbour_pack.data();
+    constexpr int kPS = Impl::kPackStride, kPRho = Impl::kPackRho, kPVol = Impl::kPackVol, kPPt = Impl::kPackPt,
+                  kPPm = Impl::kPackPm, kPInvRho = Impl::kPackInvRho;
+    const real* bvol = I.bvol.data();
+    const real* bpt = I.bpt.data();
+    // Periodic axes: pair separations take the nearest image (the period is >= 5 h, so it is unique).
+    const Vec<D> period = I.period;
+    bool any_periodic = false;
+    for (int d = 0; d < D; ++d) any_periodic = any_periodic || period[d] > 0;
 
-    // Extrapolated boundary pressure (Adami et al. 2012 with the hydrostatic term):
-    // p_b = sum_f (p_f + rho_f g.(x_b - x_f)) W_bf / sum_f W_bf, clamped at 0; density from the EOS.
-    if (extrapolated) {
-#pragma omp parallel for schedule(dynamic, 16)
-      for (size_t a = 0; a < nact; ++a) {
-        const uint32_t cb = I.active_bcells[a];
-        for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b) {
-          Vec<D> xb;
-          for (int d = 0; d < D; ++d) xb[d] = BP[d][b];
-          real sw = 0, spw = 0;
-          for (int k = 0; k < I.bnb_fluid_n[a]; ++k) {
-            const auto& blk = I.bnb_fluid[a * kNb + k];
-            const Vec<D> xs = xb - I.shifts[blk.shift];
-            for (uint32_t j = blk.begin; j < blk.end; ++j) {
-              Vec<D> dx;
-              real r2 = 0;
-              for (int d = 0; d < D; ++d) {
-                dx[d] = xs[d] - P[d][j];
-                r2 += dx[d] * dx[d];
-              }
-              if (r2 >= support2) continue;
-              const real w = kernel.W(std::sqrt(r2));
-              sw += w;
-              spw += (press[j] + rho[j] * g.dot(dx)) * w;
-            }
+    // Pair lists. The store is unconditional and the cursor advances by the test's outcome: no branch to
+    // mispredict on the ~3/4 of candidates that fall outside the support.
+#pragma omp parallel
+    {
+      const int t = omp_get_thread_num();
+      auto& buf = I.list_buf[t];
+      size_t pos = 0;
+      std::vector<real> r2buf;
+      // Distances of a contiguous run first (a vector loop), then the branch-free compaction.
+      auto scan = [&](const std::array<const real*, D>& Q, const Vec<D>& xs, uint32_t j0, uint32_t j1) {
+        if (j1 <= j0) return;
+        const uint32_t m = j1 - j0;
+        if (buf.size() < pos + m) buf.resize(std::max<size_t>(2 * buf.size(), pos + m + 1024));
+        if (r2buf.size() < m) r2buf.resize(std::max<size_t>(m, 2 * r2buf.size()));
+        real* __restrict r2s = r2buf.data();
+        if constexpr (D == 3)
+          distances_squared3(Q[0] + j0, Q[1] + j0, Q[2] + j0, xs[0], xs[1], xs[2], m, r2s);
+        else
+          distances_squared2(Q[0] + j0, Q[1] + j0, xs[0], xs[1], m, r2s);
+        uint32_t* out = buf.data();
+        for (uint32_t k = 0; k < m; ++k) {
+          out[pos] = j0 + k;
+          pos += (r2s[k] < support2) & (r2s[k] >= 1e-24);
+        }
+      };
+#pragma omp for schedule(dynamic, 16)
+      for (size_t c = 0; c < ncells; ++c) {
+        for (uint32_t i = I.fcell_begin[c]; i < I.fcell_begin[c + 1]; ++i) {
+          Vec<D> xi;
+          for (int d = 0; d < D; ++d) xi[d] = P[d][i];
+          const size_t start = pos;
+          for (int k = 0; k < I.fnb_half_n[c]; ++k) {
+            const auto& blk = I.fnb_half[c * kHalf + k];
+            // Block 0 is the particle's own column: only the higher indices (the pair's other half is listed
+            // by the lower-index particle).
+            scan(P, xi - I.shifts[blk.shift], k == 0 ? i + 1 : blk.begin, blk.end);
           }
-          const real pb = sw > 0 ? std::max(spw / sw, 0.0) : 0.0;
-          boundary_pressure_[b] = pb;
-          boundary_.rho[b] = rho0_b * std::pow(1.0 + pb / B_b, 1.0 / gam);
+          const size_t nf = pos - start;
+          for (int k = 0; k < I.fnb_bound_n[c]; ++k) {
+            const auto& blk = I.fnb_bound[c * kNb + k];
+            scan(BP, xi - I.shifts[blk.shift], blk.begin, blk.end);
+          }
+          I.list_thread[i] = static_cast<uint16_t>(t);
+          I.list_off[i] = static_cast<uint32_t>(start);
+          I.list_nf[i] = static_cast<uint32_t>(nf);
+          I.list_nb[i] = static_cast<uint32_t>(pos - start - nf);
         }
       }
     }
 
-    // Continuity (rho_i sum V_j v_ij . grad W) and density diffusion for one fluid pair.
-    auto continuity = [&](real F, real Vj, real vdotdx, real rhoi, real rhoj, int mi, int mj, const Vec<D>& dx,
-                          real& div, real& diff) {
-      div += Vj * F * vdotdx;
-      if (ddt_coef > 0 && mj == mi) {
-        real drho = rhoj - rhoi;
-        // Fourtakas et al. (2019): subtract the hydrostatic density difference, linearised:
-        // rho0 g.(x_j - x_i) / c0^2 (exact to O((g h / c0^2)^2)).
-        if (fourtakas) drho += rho0[mi] * g.dot(dx) * inv_c0_sq;
-        diff -= drho * F * Vj;
+    // Runs body(A, Bacc) in a parallel region in which each thread owns accumulators A (nf_fields values per
+    // fluid particle, particle-major so one pair's updates share a cache line) and Bacc (nb_fields per active
+    // boundary particle), zeroed; then, after the barrier, finish_fluid(sum, i) for every fluid particle with
+    // sum(f, i) the total over threads, and finish_boundary(bsum, b, slot) for every active boundary particle.
+    auto accumulate = [&](int nf_fields, int nb_fields, auto&& body, auto&& finish_fluid, auto&& finish_boundary) {
+#pragma omp parallel reduction(max : max_acc, max_visc_term, max_nu)
+      {
+        const int t = omp_get_thread_num();
+        const int T = omp_get_num_threads();
+        auto& A = I.acc_f[t];
+        auto& Bacc = I.acc_b[t];
+        A.assign(static_cast<size_t>(nf_fields) * n, 0.0);
+        Bacc.assign(static_cast<size_t>(nb_fields) * nslots, 0.0);
+        body(A.data(), Bacc.data());
+        // (the worksharing loop in body ends with a barrier: every thread's accumulators are complete)
+        auto fsum = [&](int f, size_t i) {
+          real s = 0;
+          for (int u = 0; u < T; ++u) s += I.acc_f[u][i * nf_fields + f];
+          return s;
+        };
+        auto bsum = [&](int f, size_t q) {
+          real s = 0;
+          for (int u = 0; u < T; ++u) s += I.acc_b[u][q * nb_fields + f];
+          return s;
+        };
+#pragma omp for schedule(static)
+        for (size_t i = 0; i < n; ++i) finish_fluid(fsum, i);
+        if (nb_fields > 0) {
+#pragma omp for schedule(static)
+          for (size_t a = 0; a < nact; ++a) {
+            const uint32_t cb = I.active_bcells[a];
+            for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b) finish_boundary(bsum, b, bslot[b]);
+          }
+        }
+      }
+    };
+    auto list_of = [&](uint32_t i) { return I.list_buf[I.list_thread[i]].data() + I.list_off[i]; };
+    // The fluid particles, cell by cell, shared among the threads of the enclosing parallel region.
+    auto for_each_fluid = [&](auto&& f) {
+#pragma omp for schedule(dynamic, 16)
+      for (size_t c = 0; c < ncells; ++c)
+        for (uint32_t i = I.fcell_begin[c]; i < I.fcell_begin[c + 1]; ++i) f(i);
+    };
+    auto state_of = [&](uint32_t i, Vec<D>& xi, Vec<D>& vi) {
+      for (int d = 0; d < D; ++d) {
+        xi[d] = P[d][i];
+        vi[d] = V[d][i];
       }
     };
 
-    if constexpr (kViscous) {
-      // Pass 1: continuity with density diffusion, and the velocity gradient.
-#pragma omp parallel for schedule(dynamic, 16)
-      for (size_t c = 0; c < ncells; ++c) {
-        for (uint32_t i = I.fcell_begin[c]; i < I.fcell_begin[c + 1]; ++i) {
-          Vec<D> xi, vi;
-          for (int d = 0; d < D; ++d) {
-            xi[d] = P[d][i];
-            vi[d] = V[d][i];
-          }
-          const real rhoi = rho[i];
-          const int mi = mat[i];
-          real div = 0, diff = 0;
-          // Kernel-averaged pressure for the yield stress, self term included.
-          real pw = press[i] * mass[i] / rhoi * kernel.W(0), ww = mass[i] / rhoi * kernel.W(0);
-          Mat<D> L = Mat<D>::Zero();
-          for (int k = 0; k < I.fnb_fluid_n[c]; ++k) {
-            const auto& blk = I.fnb_fluid[c * kNb + k];
-            const Vec<D> xs = xi - I.shifts[blk.shift];
-            for (uint32_t j = blk.begin; j < blk.end; ++j) {
-              Vec<D> dx;
-              real r2 = 0;
-              for (int d = 0; d < D; ++d) {
-                dx[d] = xs[d] - P[d][j];
-                r2 += dx[d] * dx[d];
+    // Extrapolated boundary pressure (Adami et al. 2012 with the hydrostatic term):
+    // p_b = sum_f (p_f + rho_f g.(x_b - x_f)) W_bf / sum_f W_bf, clamped at 0; density from the EOS.
+    if (extrapolated) {
+      accumulate(
+          0, 2,
+          [&](real*, real* Bacc) {
+#pragma omp for schedule(dynamic, 16)
+            for (size_t c = 0; c < ncells; ++c) {
+              for (uint32_t i = I.fcell_begin[c]; i < I.fcell_begin[c + 1]; ++i) {
+                const uint32_t* L = list_of(i) + I.list_nf[i];
+                for (uint32_t q = 0; q < I.list_nb[i]; ++q) {
+                  const uint32_t b = L[q];
+                  real r2 = 0, gdx = 0;
+                  for (int d = 0; d < D; ++d) {
+                    // x_b - x_f up to the periodic image: the same as -(x_i - x_b) from the fluid's side.
+                    real dxd = BP[d][b] - P[d][i];
+                    if (any_periodic && period[d] > 0) dxd -= period[d] * std::round(dxd / period[d]);
+                    r2 += dxd * dxd;
+                    gdx += g[d] * dxd;
+                  }
+                  const real w = kernel.W(std::sqrt(r2));
+                  Bacc[2 * bslot[b]] += w;
+                  Bacc[2 * bslot[b] + 1] += (press[i] + rho[i] * gdx) * w;
+                }
               }
-              if (r2 >= support2 || r2 < 1e-24) continue;
-              const real F = kernel.grad_factor(std::sqrt(r2));
-              const real Vj = mass[j] / rho[j];
-              Vec<D> vij;
-              real vdotdx = 0;
-              for (int d = 0; d < D; ++d) {
-                vij[d] = vi[d] - V[d][j];
-                vdotdx += vij[d] * dx[d];
-              }
-              continuity(F, Vj, vdotdx, rhoi, rho[j], mi, mat[j], dx, div, diff);
-              L.noalias() -= (Vj * F) * vij * dx.transpose();
-              const real Wj = Vj * kernel.W(std::sqrt(r2));
-              pw += Wj * press[j];
-              ww += Wj;
             }
-          }
-          for (int k = 0; k < I.fnb_bound_n[c]; ++k) {
-            const auto& blk = I.fnb_bound[c * kNb + k];
-            const Vec<D> xs = xi - I.shifts[blk.shift];
-            for (uint32_t j = blk.begin; j < blk.end; ++j) {
-              Vec<D> dx;
-              real r2 = 0;
-              for (int d = 0; d < D; ++d) {
-                dx[d] = xs[d] - BP[d][j];
-                r2 += dx[d] * dx[d];
-              }
-              if (r2 >= support2 || r2 < 1e-24) continue;
-              const real F = kernel.grad_factor(std::sqrt(r2));
-              const real Vj = bmass[j] / brho[j];
-              div += Vj * F * vi.dot(dx);
-              // No-slip wall, v_b = 0: the same wall velocity the viscous force of pass 2 acts against. (A
-              // mirrored v_b = -v_i, needed by the former stress-divergence force for energy consistency,
-              // overestimates the wall shear rate: the Bingham Poiseuille plug then ran 9 % fast.)
-              L.noalias() -= (Vj * F) * vi * dx.transpose();
-            }
-          }
-          yield_pressure_[i] = pw / ww;
-          drho_[i] = rhoi * div + ddt_coef * diff;
-          // Strain rate D = sym(L); deviator with the 3D trace (plane strain in 2D).
-          const Mat<D> Ds = 0.5 * (L + L.transpose());
-          const real tr3 = Ds.trace() / 3.0;
-          Mat<D> Dd = Ds;
-          for (int d = 0; d < D; ++d) Dd(d, d) -= tr3;
-          real dd = Dd.squaredNorm();
-          if constexpr (D == 2) dd += tr3 * tr3;  // the zz component of the plane-strain deviator
-          shear_rate_[i] = std::max(std::sqrt(2.0 * dd), config_.shear_rate_floor);
-        }
+          },
+          [](auto&&, size_t) {},
+          [&](auto&& bsum, uint32_t b, uint32_t s) {
+            const real sw = bsum(0, s), spw = bsum(1, s);
+            const real pb = sw > 0 ? std::max(spw / sw, 0.0) : 0.0;
+            boundary_pressure_[b] = pb;
+            boundary_.rho[b] = rho0_b * std::pow(1.0 + pb / B_b, 1.0 / gam);
+          });
+    }
+
+#pragma omp parallel for schedule(static)
+    for (size_t a = 0; a < nact; ++a) {
+      const uint32_t cb = I.active_bcells[a];
+      for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b) {
+        I.bvol[b] = bmass[b] / brho[b];
+        I.bpt[b] = bpress[b] / (brho[b] * brho[b]);
       }
+    }
+
+    // Pair geometry in two stages. prepare() runs over a particle's whole list first: separations (periodic
+    // image), r, F and one reciprocal per pair, inv = 1 / (r (r^2 + eta^2) (rho_i + rho_j)), from which 1/r,
+    // 1/(r^2 + eta^2) and 1/(rho_i + rho_j) follow by products. A short loop of independent square roots and
+    // divisions keeps the pipelines full; inside the long force loop their latency stalled it.
+    auto prepare = [&](PairGeometry<D>& G, const Vec<D>& xi, real rhoi, const uint32_t* list, uint32_t nfl,
+                       uint32_t nbl) {
+      G.ensure(nfl + nbl);
+      // Restrict-qualified locals: the stores cannot alias the loads, so the loop vectorises (gathers).
+      real* __restrict gdx[3] = {G.dx[0].data(), G.dx[D > 1 ? 1 : 0].data(), G.dx[D > 2 ? 2 : 0].data()};
+      real* __restrict gr2 = G.r2.data();
+      real* __restrict gr = G.r.data();
+      real* __restrict ginv = G.inv.data();
+      real* __restrict gF = G.F.data();
+      auto stage = [&]<bool kPeriodic>(uint32_t q0, uint32_t q1, const std::array<const real*, D> Q,
+                                       const real* __restrict rhoQ) {
+        const Vec<D> x = xi;
+        for (uint32_t q = q0; q < q1; ++q) {
+          const uint32_t j = list[q];
+          real r2 = 0;
+          for (int d = 0; d < D; ++d) {
+            real dxd = x[d] - Q[d][j];
+            if constexpr (kPeriodic)
+              if (period[d] > 0) dxd -= period[d] * std::round(dxd / period[d]);
+            gdx[d][q] = dxd;
+            r2 += dxd * dxd;
+          }
+          const real r = std::sqrt(r2), e = r2 + eta2, rs = rhoi + rhoQ[j];
+          const real inv = 1.0 / (r * e * rs);
+          gr2[q] = r2;
+          gr[q] = r;
+          ginv[q] = inv;
+          gF[q] = kernel.grad_factor_in_support(r, inv * e * rs);
+        }
+      };
+      if (any_periodic) {
+        stage.template operator()<true>(0, nfl, P, rho);
+        stage.template operator()<true>(nfl, nfl + nbl, BP, brho);
+      } else {
+        const real xc = D == 3 ? xi[D - 1] : 0.0;
+        pair_geometry<D>(kernel, list, 0, nfl, P[0], P[1], P[D - 1], rho, xi[0], xi[1], xc, rhoi, eta2, gdx[0],
+                         gdx[1], gdx[2], gr2, gr, ginv, gF);
+        pair_geometry<D>(kernel, list, nfl, nfl + nbl, BP[0], BP[1], BP[D - 1], brho, xi[0], xi[1], xc, rhoi, eta2,
+                         gdx[0], gdx[1], gdx[2], gr2, gr, ginv, gF);
+      }
+    };
+    // Entry q of the list: dx = x_i - x_j, r2, v_ij and v_ij . dx (fluid j; a wall has v = 0).
+    auto fluid_at = [&](const PairGeometry<D>& G, uint32_t q, const Vec<D>& vi, const real* pk, Vec<D>& dx, Vec<D>& vij,
+                        real& vdotdx) {
+      vdotdx = 0;
+      for (int d = 0; d < D; ++d) {
+        dx[d] = G.dx[d][q];
+        vij[d] = vi[d] - pk[d];
+        vdotdx += vij[d] * dx[d];
+      }
+      return G.r2[q];
+    };
+    auto wall_at = [&](const PairGeometry<D>& G, uint32_t q, const Vec<D>& vi, Vec<D>& dx, real& vdotdx) {
+      vdotdx = 0;
+      for (int d = 0; d < D; ++d) {
+        dx[d] = G.dx[d][q];
+        vdotdx += vi[d] * dx[d];
+      }
+      return G.r2[q];
+    };
+    // Density diffusion of one same-material fluid pair: the term for i is -dr F V_j, for j +dr F V_i.
+    // Fourtakas et al. (2019) subtract the hydrostatic density difference, linearised:
+    // rho0 g.(x_j - x_i) / c0^2 (exact to O((g h / c0^2)^2)).
+    auto diffusion_dr = [&](real rhoi, real rhoj, int mi, const Vec<D>& dx) {
+      real dr = rhoj - rhoi;
+      if (fourtakas) dr += rho0[mi] * g.dot(dx) * inv_c0_sq;
+      return dr;
+    };
+
+    constexpr int kDiv = 0, kDiff = 1;
+    if constexpr (kViscous) {
+      // Pass 1: continuity with density diffusion, the velocity gradient L = -sum V_j v_ij (x) grad W, the
+      // kernel-averaged pressure for the yield stress, and the boundary's DBC continuity.
+      constexpr int kPw = 2, kWw = 3, kL = 4;  // L: D*D fields, row-major
+      constexpr int kS1 = kL + D * D;
+      accumulate(
+          kS1, 1,
+          [&](real* A, real* Bacc) {
+            PairGeometry<D> G;
+            for_each_fluid([&](uint32_t i) {
+              Vec<D> xi, vi;
+              state_of(i, xi, vi);
+              const real rhoi = rho[i], Vi = vol[i], pi = press[i];
+              const int mi = mat[i];
+              real div = 0, diff = 0, pw = 0, ww = 0;
+              Mat<D> L = Mat<D>::Zero();
+              const uint32_t* list = list_of(i);
+              const uint32_t nfl = I.list_nf[i], nbl = I.list_nb[i];
+              prepare(G, xi, rhoi, list, nfl, nbl);
+              for (uint32_t q = 0; q < nfl; ++q) {
+                const uint32_t j = list[q];
+                Vec<D> dx, vij;
+                real vdotdx;
+                const real* pk = pack + kPS * j;
+                fluid_at(G, q, vi, pk, dx, vij, vdotdx);
+                const real F = G.F[q], W = kernel.W(G.r[q]);
+                const real Vj = pk[kPVol];
+                div += Vj * F * vdotdx;
+                A[j * kS1 + kDiv] += Vi * F * vdotdx;
+                if (ddt_coef > 0 && mat[j] == mi) {
+                  const real dr = diffusion_dr(rhoi, pk[kPRho], mi, dx);
+                  diff -= dr * F * Vj;
+                  A[j * kS1 + kDiff] += dr * F * Vi;
+                }
+                // L_i -= V_j F v_ij dx^T and L_j -= V_i F v_ji dx_ji^T = V_i F v_ij dx^T.
+                for (int a = 0; a < D; ++a)
+                  for (int b = 0; b < D; ++b) {
+                    const real vd = F * vij[a] * dx[b];
+                    L(a, b) -= Vj * vd;
+                    A[j * kS1 + (kL + a * D + b)] -= Vi * vd;
+                  }
+                pw += Vj * W * pk[kPPm];
+                ww += Vj * W;
+                A[j * kS1 + kPw] += Vi * W * pi;
+                A[j * kS1 + kWw] += Vi * W;
+              }
+              for (uint32_t q = nfl; q < nfl + nbl; ++q) {
+                const uint32_t b = list[q];
+                Vec<D> dx;
+                real vdotdx;
+                wall_at(G, q, vi, dx, vdotdx);
+                const real F = G.F[q];
+                div += bvol[b] * F * vdotdx;
+                // No-slip wall, v_b = 0: the same wall velocity the viscous force of pass 2 acts against. (A
+                // mirrored v_b = -v_i, needed by the former stress-divergence force for energy consistency,
+                // overestimates the wall shear rate: the Bingham Poiseuille plug then ran 9 % fast.)
+                L.noalias() -= (bvol[b] * F) * vi * dx.transpose();
+                // DBC continuity of b, drho_b/dt = rho_b sum V_f (0 - v_f) . grad_b W = rho_b sum V_f F v_f . dx.
+                Bacc[bslot[b]] += Vi * F * vdotdx;
+              }
+              A[i * kS1 + kDiv] += div;
+              A[i * kS1 + kDiff] += diff;
+              A[i * kS1 + kPw] += pw;
+              A[i * kS1 + kWw] += ww;
+              for (int a = 0; a < D; ++a)
+                for (int b = 0; b < D; ++b) A[i * kS1 + (kL + a * D + b)] += L(a, b);
+            });
+          },
+          [&](auto&& sum, size_t i) {
+            // The kernel-averaged pressure includes the particle itself.
+            const real self = mass[i] / rho[i] * kernel.W(0);
+            yield_pressure_[i] = (sum(kPw, i) + self * press[i]) / (sum(kWw, i) + self);
+            drho_[i] = rho[i] * sum(kDiv, i) + ddt_coef * sum(kDiff, i);
+            Mat<D> L;
+            for (int a = 0; a < D; ++a)
+              for (int b = 0; b < D; ++b) L(a, b) = sum(kL + a * D + b, i);
+            // Strain rate D = sym(L); deviator with the 3D trace (plane strain in 2D).
+            const Mat<D> Ds = 0.5 * (L + L.transpose());
+            const real tr3 = Ds.trace() / 3.0;
+            Mat<D> Dd = Ds;
+            for (int d = 0; d < D; ++d) Dd(d, d) -= tr3;
+            real dd = Dd.squaredNorm();
+            if constexpr (D == 2) dd += tr3 * tr3;  // the zz component of the plane-strain deviator
+            shear_rate_[i] = std::max(std::sqrt(2.0 * dd), config_.shear_rate_floor);
+          },
+          [&](auto&& bsum, uint32_t b, uint32_t s) { boundary_drho_[b] = brho[b] * bsum(0, s); });
 
       // Rheology: one call per material batch.
       if (materials_.size() == 1) {
@@ -691,147 +1020,138 @@ void Solver<D>::evaluate(bool compute_dt) {
         mu_eff_[i] = mu;
         mu_wall_[i] = wall_friction[fluid_.material[i]] > 0 ? std::min(mu_wall_[i], cap) : mu;
         max_nu = std::max(max_nu, mu / rho[i]);
+        I.neighbour_pack[Impl::kPackStride * i + Impl::kPackPm] = mu;  // pass 2 reads mu_eff where pass 1 read p
       }
     }
 
     // Pass 2: momentum (pressure, artificial viscosity, rheology stress, gravity); in inviscid scenes also
-    // continuity. The rheology stress acts through the Morris et al. (1997) viscous operator with each
-    // particle's capped mu_eff from pass 1 (the same for every rheology): a one-step Laplacian stencil, with no
-    // odd-even null mode, unlike the divergence of tau = 2 mu_eff D' built from the SPH velocity gradient
-    // (alternate particle rows slid past each other). It approximates div(mu_eff grad v) and drops the
-    // grad(mu_eff) . (grad v)^T part of div(2 mu_eff D'), which vanishes in simple shear (docs/design.md).
-    // Pairwise symmetric and v_ij-parallel, so it conserves momentum and can only dissipate energy.
-#pragma omp parallel for schedule(dynamic, 16) reduction(max : max_acc, max_visc_term)
-    for (size_t c = 0; c < ncells; ++c) {
-      for (uint32_t i = I.fcell_begin[c]; i < I.fcell_begin[c + 1]; ++i) {
-        Vec<D> xi, vi;
-        for (int d = 0; d < D; ++d) {
-          xi[d] = P[d][i];
-          vi[d] = V[d][i];
-        }
-        const real rhoi = rho[i];
-        const int mi = mat[i];
-        const real pi_term = press[i] / (rhoi * rhoi);
-        const real mui = kViscous ? mu_eff_[i] : 0.0;
-        const real mu_wall_i = kViscous ? mu_wall_[i] : 0.0;
-        const real friction_i = kViscous ? wall_friction[mi] : 0.0;
-        Vec<D> a = Vec<D>::Zero();
-        Vec<D> a_wall_push = Vec<D>::Zero();  // the walls' pressure force on the particle, per unit mass
-        bool contact = false;                 // closer than kWallContact dp to a wall particle
-        Vec<D> wall_normal = Vec<D>::Zero();  // -sum_b V_b grad W: points away from the wall
-        real visc_max = 0, div = 0, diff = 0;
-        // One pair's momentum contribution; muj is the neighbour's (capped) effective viscosity.
-        auto momentum = [&](real F, const Vec<D>& dx, real r2, const Vec<D>& vij, real vdotdx, real mj, real rhoj,
-                            real pj, real muj, bool wall) {
-          real pterm = pi_term + pj / (rhoj * rhoj);
-          // A wall pushes and never pulls: where a fluid particle's pressure is negative (a liquid may carry
-          // tension) the pair term would draw it into the wall's particle lattice.
-          if (wall) pterm = std::max(pterm, real(0));
-          const real mu_ij = h * vdotdx / (r2 + eta2);
-          visc_max = std::max(visc_max, std::abs(mu_ij));
-          if (alpha > 0 && vdotdx < 0) pterm -= alpha * c0 * mu_ij / (0.5 * (rhoi + rhoj));
-          a -= (mj * pterm * F) * dx;
-          if (wall) a_wall_push -= (mj * pterm * F) * dx;
-          if constexpr (kViscous) {
-            // Morris et al. (1997): m_j (mu_i + mu_j) / (rho_i rho_j) (r_ij . grad W) / (r^2 + eta^2) v_ij,
-            // r_ij . grad W = F r^2 (F < 0: the pair force opposes v_ij).
-            a += (mj * ((wall ? mu_wall_i : mui) + muj) / (rhoi * rhoj) * F * r2 / (r2 + eta2)) * vij;
-          }
-        };
-        for (int k = 0; k < I.fnb_fluid_n[c]; ++k) {
-          const auto& blk = I.fnb_fluid[c * kNb + k];
-          const Vec<D> xs = xi - I.shifts[blk.shift];
-          for (uint32_t j = blk.begin; j < blk.end; ++j) {
-            Vec<D> dx;
-            real r2 = 0;
-            for (int d = 0; d < D; ++d) {
-              dx[d] = xs[d] - P[d][j];
-              r2 += dx[d] * dx[d];
+    // continuity and the boundary's DBC continuity. The rheology stress acts through the Morris et al. (1997)
+    // viscous operator with each particle's capped mu_eff from pass 1 (the same for every rheology): a one-step
+    // Laplacian stencil, with no odd-even null mode, unlike the divergence of tau = 2 mu_eff D' built from the
+    // SPH velocity gradient (alternate particle rows slid past each other). It approximates div(mu_eff grad v)
+    // and drops the grad(mu_eff) . (grad v)^T part of div(2 mu_eff D'), which vanishes in simple shear
+    // (docs/design.md). Pairwise symmetric and v_ij-parallel, so it conserves momentum and can only dissipate
+    // energy.
+    constexpr int kAcc = kViscous ? 0 : 2;  // first of D acceleration fields (inviscid: after div and diff)
+    constexpr int kS2 = kAcc + D;
+    accumulate(
+        kS2, kViscous ? 0 : 1,
+        [&](real* A, real* Bacc) {
+            PairGeometry<D> G;
+          for_each_fluid([&](uint32_t i) {
+            Vec<D> xi, vi;
+            state_of(i, xi, vi);
+            const real rhoi = rho[i], mi_mass = mass[i], Vi = vol[i];
+            const int mi = mat[i];
+            const real pi_term = pt[i];
+            const real mui = kViscous ? mu_eff_[i] : 0.0;
+            const real mu_wall_i = kViscous ? mu_wall_[i] : 0.0;
+            const real friction_i = kViscous ? wall_friction[mi] : 0.0;
+            Vec<D> a = Vec<D>::Zero();
+            Vec<D> a_wall_push = Vec<D>::Zero();  // the walls' pressure force on the particle, per unit mass
+            bool contact = false;                 // closer than kWallContact dp to a wall particle
+            Vec<D> wall_normal = Vec<D>::Zero();  // -sum_b V_b grad W: points away from the wall
+            real visc_max = 0, div = 0, diff = 0;
+            const uint32_t* list = list_of(i);
+            const uint32_t nfl = I.list_nf[i], nbl = I.list_nb[i];
+            prepare(G, xi, rhoi, list, nfl, nbl);
+            for (uint32_t q = 0; q < nfl; ++q) {
+              const uint32_t j = list[q];
+              Vec<D> dx, vij;
+              real vdotdx;
+              const real* pk = pack + kPS * j;
+              const real r2 = fluid_at(G, q, vi, pk, dx, vij, vdotdx);
+              const real rhoj = pk[kPRho], Vj = pk[kPVol], mj = Vj * rhoj;
+              const real r = G.r[q], e = r2 + eta2, rs = rhoi + rhoj, inv = G.inv[q];
+              const real inv_e = inv * r * rs;
+              const real F = G.F[q];
+              if constexpr (!kViscous) {
+                div += Vj * F * vdotdx;
+                A[j * kS2 + kDiv] += Vi * F * vdotdx;
+                if (ddt_coef > 0 && mat[j] == mi) {
+                  const real dr = diffusion_dr(rhoi, rhoj, mi, dx);
+                  diff -= dr * F * Vj;
+                  A[j * kS2 + kDiff] += dr * F * Vi;
+                }
+              }
+              real pterm = pi_term + pk[kPPt];
+              const real mu_ij = h * vdotdx * inv_e;
+              visc_max = std::max(visc_max, std::abs(mu_ij));
+              // Monaghan: approaching pairs only, over the mean density; a select, not a branch (the sign is as
+              // good as random).
+              if (alpha > 0) pterm -= 2.0 * alpha * c0 * std::min(mu_ij, real(0)) * (inv * r * e);
+              // a_i = m_j s, a_j = -m_i s with s = -pterm F dx + (Morris) visc v_ij: antisymmetric in i, j.
+              Vec<D> s = (-pterm * F) * dx;
+              if constexpr (kViscous) {
+                // Morris et al. (1997): (mu_i + mu_j) / (rho_i rho_j) (r_ij . grad W) / (r^2 + eta^2) v_ij,
+                // r_ij . grad W = F r^2 (F < 0: the pair force opposes v_ij).
+                s += ((mui + pk[kPPm]) * inv_rho[i] * pk[kPInvRho] * F * r2 * inv_e) * vij;
+              }
+              a += mj * s;
+              for (int d = 0; d < D; ++d) A[j * kS2 + (kAcc + d)] -= mi_mass * s[d];
             }
-            if (r2 >= support2 || r2 < 1e-24) continue;
-            const real F = kernel.grad_factor(std::sqrt(r2));
-            Vec<D> vij;
-            real vdotdx = 0;
-            for (int d = 0; d < D; ++d) {
-              vij[d] = vi[d] - V[d][j];
-              vdotdx += vij[d] * dx[d];
+            // Boundary neighbours: no-slip (v_b = 0, so v_ij = v_i), DBC or extrapolated pressure; the wall
+            // particle takes the fluid particle's viscosity (mu_b = mu_i).
+            for (uint32_t q = nfl; q < nfl + nbl; ++q) {
+              const uint32_t b = list[q];
+              Vec<D> dx;
+              real vdotdx;
+              const real r2 = wall_at(G, q, vi, dx, vdotdx);
+              const real rhob = brho[b], mb = bmass[b];
+              const real r = G.r[q], e = r2 + eta2, rs = rhoi + rhob, inv = G.inv[q];
+              const real inv_e = inv * r * rs;
+              const real F = G.F[q];
+              if constexpr (!kViscous) {
+                div += bvol[b] * F * vdotdx;
+                Bacc[bslot[b]] += Vi * F * vdotdx;  // DBC continuity of b (see pass 1)
+              }
+              // A wall pushes and never pulls: where a fluid particle's pressure is negative (a liquid may
+              // carry tension) the pair term would draw it into the wall's particle lattice.
+              real pterm = std::max(pi_term + bpt[b], real(0));
+              const real mu_ij = h * vdotdx * inv_e;
+              visc_max = std::max(visc_max, std::abs(mu_ij));
+              if (alpha > 0) pterm -= 2.0 * alpha * c0 * std::min(mu_ij, real(0)) * (inv * r * e);
+              const Vec<D> push = (-mb * pterm * F) * dx;
+              a += push;
+              a_wall_push += push;
+              if constexpr (kViscous) a += (mb * 2.0 * mu_wall_i * inv_rho[i] / rhob * F * r2 * inv_e) * vi;
+              contact = contact || r2 < contact2;
+              wall_normal -= (bvol[b] * F) * dx;
             }
-            const real rhoj = rho[j];
-            if constexpr (!kViscous) continuity(F, mass[j] / rhoj, vdotdx, rhoi, rhoj, mi, mat[j], dx, div, diff);
-            momentum(F, dx, r2, vij, vdotdx, mass[j], rhoj, press[j], kViscous ? mu_eff_[j] : 0.0, false);
-          }
-        }
-        // Boundary neighbours: no-slip (v_b = 0, so v_ij = v_i), DBC or extrapolated pressure; the wall particle
-        // takes the fluid particle's viscosity (mu_b = mu_i).
-        for (int k = 0; k < I.fnb_bound_n[c]; ++k) {
-          const auto& blk = I.fnb_bound[c * kNb + k];
-          const Vec<D> xs = xi - I.shifts[blk.shift];
-          for (uint32_t j = blk.begin; j < blk.end; ++j) {
-            Vec<D> dx;
-            real r2 = 0;
-            for (int d = 0; d < D; ++d) {
-              dx[d] = xs[d] - BP[d][j];
-              r2 += dx[d] * dx[d];
+            if constexpr (kViscous) {
+              // Basal friction (friction rheologies): Coulomb against the wall's normal push N, along the
+              // tangential velocity, smoothed over a slip speed v_slip so a resting particle is not chattered
+              // by sign flips.
+              const real push = a_wall_push.norm();
+              if (friction_i > 0 && push > 0) {
+                const Vec<D> nrm = a_wall_push / push;
+                const Vec<D> vt = vi - vi.dot(nrm) * nrm;
+                const real vts = vt.norm();
+                if (vts > 0) a -= (friction_i * push * -std::expm1(-vts / v_slip) / vts) * vt;
+              }
             }
-            if (r2 >= support2 || r2 < 1e-24) continue;
-            const real F = kernel.grad_factor(std::sqrt(r2));
-            const real vdotdx = vi.dot(dx);
-            const real rhob = brho[j];
-            if constexpr (!kViscous) div += bmass[j] / rhob * F * vdotdx;
-            momentum(F, dx, r2, vi, vdotdx, bmass[j], rhob, bpress[j], mu_wall_i, true);
-            contact = contact || r2 < contact2;
-            wall_normal -= (bmass[j] / rhob * F) * dx;
-          }
-        }
-        if constexpr (kViscous) {
-          // Basal friction (friction rheologies): Coulomb against the wall's normal push N, along the tangential
-          // velocity, smoothed over a slip speed v_slip so a resting particle is not chattered by sign flips.
-          const real push = a_wall_push.norm();
-          if (friction_i > 0 && push > 0) {
-            const Vec<D> nrm = a_wall_push / push;
-            const Vec<D> vt = vi - vi.dot(nrm) * nrm;
-            const real vts = vt.norm();
-            if (vts > 0) a -= (friction_i * push * -std::expm1(-vts / v_slip) / vts) * vt;
-          }
-        }
-        {
-          const real nn = wall_normal.norm();
-          for (int d = 0; d < D; ++d) contact_normal_[d][i] = contact && nn > 0 ? wall_normal[d] / nn : 0;
-        }
-        if constexpr (!kViscous) drho_[i] = rhoi * div + ddt_coef * diff;
-        a += g;
-        for (int d = 0; d < D; ++d) acc_[d][i] = a[d];
-        max_acc = std::max(max_acc, a.squaredNorm());
-        max_visc_term = std::max(max_visc_term, visc_max);
-      }
-    }
-
-    // Boundary particles next to fluid: DBC continuity, drho_b/dt = rho_b sum V_j (0 - v_j) . grad W.
-#pragma omp parallel for schedule(dynamic, 16)
-    for (size_t a = 0; a < nact; ++a) {
-      const uint32_t cb = I.active_bcells[a];
-      for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b) {
-        Vec<D> xb;
-        for (int d = 0; d < D; ++d) xb[d] = BP[d][b];
-        real div = 0;
-        for (int k = 0; k < I.bnb_fluid_n[a]; ++k) {
-          const auto& blk = I.bnb_fluid[a * kNb + k];
-          const Vec<D> xs = xb - I.shifts[blk.shift];
-          for (uint32_t j = blk.begin; j < blk.end; ++j) {
-            Vec<D> dx;
-            real r2 = 0, vdotdx = 0;
-            for (int d = 0; d < D; ++d) {
-              dx[d] = xs[d] - P[d][j];
-              r2 += dx[d] * dx[d];
+            {
+              const real nn = wall_normal.norm();
+              for (int d = 0; d < D; ++d) contact_normal_[d][i] = contact && nn > 0 ? wall_normal[d] / nn : 0;
             }
-            if (r2 >= support2 || r2 < 1e-24) continue;
-            for (int d = 0; d < D; ++d) vdotdx -= V[d][j] * dx[d];
-            div += mass[j] / rho[j] * kernel.grad_factor(std::sqrt(r2)) * vdotdx;
-          }
-        }
-        boundary_drho_[b] = brho[b] * div;
-      }
-    }
+            if constexpr (!kViscous) {
+              A[i * kS2 + kDiv] += div;
+              A[i * kS2 + kDiff] += diff;
+            }
+            for (int d = 0; d < D; ++d) A[i * kS2 + (kAcc + d)] += a[d];
+            max_visc_term = std::max(max_visc_term, visc_max);
+          });
+        },
+        [&](auto&& sum, size_t i) {
+          Vec<D> a;
+          for (int d = 0; d < D; ++d) a[d] = sum(kAcc + d, i) + g[d];
+          for (int d = 0; d < D; ++d) acc_[d][i] = a[d];
+          max_acc = std::max(max_acc, a.squaredNorm());
+          if constexpr (!kViscous) drho_[i] = rho[i] * sum(kDiv, i) + ddt_coef * sum(kDiff, i);
+        },
+        [&](auto&& bsum, uint32_t b, uint32_t s) {
+          if constexpr (!kViscous) boundary_drho_[b] = brho[b] * bsum(0, s);
+        });
   };
 
   with_kernel<D>(config_.kernel, h, [&](auto kernel) {
@@ -1005,6 +1325,25 @@ void Solver<D>::check_state() {
 
   long leak = std::numeric_limits<long>::max();
   int leak_region = -1;
+  // Leak regions with their axes worked out once, not per particle.
+  struct Region {
+    Vec<D> origin, size;
+    std::array<Vec<D>, D> axis;
+    bool contains(const Vec<D>& p) const {
+      const Vec<D> r = p - origin;
+      for (int d = 0; d < D; ++d) {
+        const real l = r.dot(axis[d]);
+        if (l < 0.0 || l > size[d]) return false;
+      }
+      return true;
+    }
+  };
+  std::vector<Region> regions;
+  for (const auto& r : leak_regions_) {
+    Region q{r.box.origin, r.box.size, {}};
+    for (int d = 0; d < D; ++d) q.axis[d] = r.box.axis(d);
+    regions.push_back(q);
+  }
 #pragma omp parallel for reduction(min : leak)
   for (size_t i = 0; i < n; ++i) {
     if (is_inlet_buffer(fluid_.tag[i])) continue;  // moved by their inlet, checked when it is built
@@ -1017,7 +1356,7 @@ void Solver<D>::check_state() {
     }
     if (!config_.periodic[D - 1] && p[D - 1] < config_.domain_min[D - 1] && !config_.outflow[D - 1][0])
       leak = std::min(leak, static_cast<long>(i));
-    for (const auto& r : leak_regions_)
+    for (const auto& r : regions)
       if (r.contains(p)) leak = std::min(leak, static_cast<long>(i));
   }
   if (leak != std::numeric_limits<long>::max()) {

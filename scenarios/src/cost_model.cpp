@@ -80,14 +80,17 @@ CostFeatures cost_features(const Scene& scene) {
 CostModel CostModel::calibrated() {
   CostModel m;
   // Fitted by `runout calibrate` on 15 runs of the shipped scenes, one thread each, on the quiet 2-core
-  // development machine, 2026-11-29 (docs/tradeoff.md, "The cost model": the runs, the command, the errors).
-  m.two_d = {1.014, 4.35e-7, 4.29e-7, 0.0};
-  m.three_d = {1.115, 1.14e-6, 6.64e-9, 6.27e-5};
-  // Not fitted by `runout calibrate` (its runs are one-thread): from one against two threads on the 3D dam
-  // break (18 450 fluid: speed-up 1.88, docs/performance.md) and the flume's C6 at draft (300 fluid: 26.1 s
-  // against 18.4 s, 1.42), docs/tradeoff.md.
-  m.parallel_efficiency = 0.9;
-  m.parallel_half_fluid = 380;
+  // development machine, 2026-11-29, after the engine's pair-list rewrite, default (native) build
+  // (docs/tradeoff.md, "The cost model": the runs, the command, the errors).
+  m.two_d = {1.014, 2.14e-7, 4.59e-8, 9.06e-5};
+  m.three_d = {1.115, 4.17e-7, 1.83e-9, 0.0};
+  // Not fitted by `runout calibrate` (its runs are one-thread): least squares on the relative time error of
+  // seven one- against two-thread pairs, 2026-11-29: the 3D dam break benchmark at 18 450 / 45 375 / 128 310
+  // fluid (speed-ups 1.91 / 1.71 / 1.93, docs/performance.md), the flume's C6 at draft and standard (300 and
+  // 1 360 fluid: 0.91 and 1.26) and the catchment's G7 at 6 and 5 m (170 and 240 fluid: 1.57 and 1.23),
+  // docs/tradeoff.md. Small flows gain little or nothing from a second thread.
+  m.parallel_efficiency = 0.8;
+  m.parallel_half_fluid = 480;
   return m;
 }
 

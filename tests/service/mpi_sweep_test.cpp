@@ -238,7 +238,8 @@ TEST_F(MpiSweep, ThreeRanksStoreExactlyTheSingleProcessMetricsOnceAndResume) {
 }
 
 TEST_F(MpiSweep, AWorkerKilledMidRunLosesNoRun) {
-  write_sweep(0.6);
+  constexpr double kDuration = 2.0;  // ~5 s per run (2026-11-29 engine): the kill below lands mid-run
+  write_sweep(kDuration);
   // --enable-recovery: mpirun does not abort the job when a rank dies (Open MPI 4.1 has no ULFM; rank 0
   // notices by the silence). A 5 s heartbeat timeout keeps the test short.
   const pid_t mpirun_pid = spawn(cat(mpirun(3, {"--enable-recovery"}), sweep_args("mpi.db", "mpi", {"--heartbeat-timeout", "5"})),
@@ -251,7 +252,6 @@ TEST_F(MpiSweep, AWorkerKilledMidRunLosesNoRun) {
   while (!std::regex_search(log = read_text(dir_ / "mpi.log"), m, given) && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(200ms);
   ASSERT_TRUE(std::regex_search(log, m, given)) << log;
-  const std::string victim_run = m[1].str();
   std::this_thread::sleep_for(3s);  // the scene is built, the run is under way
   const pid_t victim = find_rank(1, dir_.string());
   ASSERT_GT(victim, 0) << "rank 1 not found";
@@ -259,13 +259,19 @@ TEST_F(MpiSweep, AWorkerKilledMidRunLosesNoRun) {
   const auto killed_at = std::chrono::steady_clock::now();
   const int code = wait_exit(mpirun_pid, 900s);
   log = read_text(dir_ / "mpi.log");
-  std::cerr << "[mpi_sweep] killed rank 1 (pid " << victim << ") in run " << victim_run << "; mpirun ended "
+  std::cerr << "[mpi_sweep] killed rank 1 (pid " << victim << "); mpirun ended "
             << std::chrono::duration<double>(std::chrono::steady_clock::now() - killed_at).count() << " s later\n";
   EXPECT_EQ(code, 0) << log;
-  // Rank 1 had not sent its result: rank 0 declared it lost and gave the run back to the queue.
-  EXPECT_NE(log.find("rank 1 silent"), std::string::npos) << log;
+  // Rank 1 had not sent its result: rank 0 declared it lost and gave the run back to the queue. The victim is
+  // the last run handed to rank 1 before that (whatever the runs' speed, not necessarily its first).
+  const size_t silent = log.find("rank 1 silent");
+  ASSERT_NE(silent, std::string::npos) << log;
+  std::string victim_run;
+  for (std::sregex_iterator it(log.cbegin(), log.cbegin() + static_cast<std::ptrdiff_t>(silent), given), end; it != end; ++it)
+    victim_run = (*it)[1].str();
+  ASSERT_FALSE(victim_run.empty()) << log;
   EXPECT_NE(log.find("its run " + victim_run + " goes back to the queue"), std::string::npos) << log;
-  EXPECT_NE(log.find(victim_run + " -> rank 2"), std::string::npos) << log;
+  EXPECT_NE(log.find(victim_run + " -> rank 2", silent), std::string::npos) << log;
 
   runout::RunStore store(dir_ / "mpi.db");
   const auto runs = runs_of(store);
@@ -274,7 +280,7 @@ TEST_F(MpiSweep, AWorkerKilledMidRunLosesNoRun) {
     ASSERT_TRUE(runs.count(v)) << v;
     EXPECT_EQ(runs.at(v).status, "completed") << v;
     // The whole duration was simulated (not a partial run).
-    EXPECT_NEAR(store.metrics(runs.at(v).id).at("simulated_time_s"), 0.6, 0.01) << v;
+    EXPECT_NEAR(store.metrics(runs.at(v).id).at("simulated_time_s"), kDuration, 0.01) << v;
   }
   EXPECT_EQ(store.integrity_check(), "ok");
   // No runout process of this test is left behind.

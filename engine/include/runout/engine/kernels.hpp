@@ -1,6 +1,7 @@
 #pragma once
 // Smoothing kernels (thesis eq. 2.6-2.7). Both have support radius 2h.
-// A kernel is a small value type with W(r) and grad_factor(r) such that grad_i W_ij = grad_factor(r) * r_ij.
+// A kernel is a small value type with W(r) and grad_factor(r) such that grad_i W_ij = grad_factor(r) * r_ij
+// (and grad_factor_in_support(r, 1/r), the same inside the support given 1/r).
 // The solver is templated on the kernel type, so the hot loop has no virtual call; a new kernel is a new
 // struct here plus one entry in `KernelList` and `kernel_names()`.
 #include <string>
@@ -34,6 +35,11 @@ struct WendlandC2 {
     const real t = 1.0 - 0.5 * q;
     return -5.0 * alpha * t * t * t * inv_h * inv_h;
   }
+  // The same for 0 < r < 2h (a pair list's entries), with 1/r supplied: no branches, so pair loops vectorise.
+  real grad_factor_in_support(real r, real /*inv_r*/) const {
+    const real t = 1.0 - 0.5 * r * inv_h;
+    return -5.0 * alpha * t * t * t * inv_h * inv_h;
+  }
 };
 
 template <int D>
@@ -44,24 +50,33 @@ struct CubicSpline {
     alpha = (D == 2) ? 10.0 / (7.0 * kPi * h * h) : 1.0 / (kPi * h * h * h);
   }
   real support() const { return 2.0 * h; }
+  // Both branches are evaluated and one selected: whether a neighbour is inside q = 1 is as good as random,
+  // and a mispredicted branch costs more than the few flops.
   real W(real r) const {
     const real q = r * inv_h;
     if (q >= 2.0) return 0.0;
-    if (q < 1.0) return alpha * (1.0 - 1.5 * q * q + 0.75 * q * q * q);
     const real t = 2.0 - q;
-    return alpha * 0.25 * t * t * t;
+    const real inner = alpha * (1.0 - 1.5 * q * q + 0.75 * q * q * q);
+    const real outer = alpha * 0.25 * t * t * t;
+    return q < 1.0 ? inner : outer;
   }
   real grad_factor(real r) const {
     const real q = r * inv_h;
     if (q >= 2.0 || r <= 0.0) return 0.0;
-    real dWdq;
-    if (q < 1.0) {
-      dWdq = alpha * (-3.0 * q + 2.25 * q * q);
-    } else {
-      const real t = 2.0 - q;
-      dWdq = -0.75 * alpha * t * t;
-    }
-    return dWdq * inv_h / r;
+    const real t = 2.0 - q;
+    const real inner = alpha * (-3.0 * q + 2.25 * q * q);
+    const real outer = -0.75 * alpha * t * t;
+    return (q < 1.0 ? inner : outer) * inv_h / r;
+  }
+  // The same for 0 < r < 2h (a pair list's entries), with 1/r supplied (the pair loops share one division
+  // among several terms): no branches, so pair loops vectorise. Inside q = 1, dW/dq / r = alpha (-3 + 2.25 q) / h^2
+  // needs no 1/r.
+  real grad_factor_in_support(real r, real inv_r) const {
+    const real q = r * inv_h;
+    const real t = 2.0 - q;
+    const real inner = alpha * (-3.0 + 2.25 * q) * inv_h * inv_h;
+    const real outer = -0.75 * alpha * t * t * inv_h * inv_r;
+    return q < 1.0 ? inner : outer;
   }
 };
 
