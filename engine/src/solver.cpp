@@ -8,6 +8,7 @@
 #include <limits>
 #include <numeric>
 #include <sstream>
+#include <stdexcept>
 
 namespace runout {
 
@@ -334,6 +335,16 @@ EnergySummary Solver<D>::energy() const {
   return e;
 }
 
+template <int D>
+void Solver<D>::remove_as_outflow(const std::vector<size_t>& indices) {
+  if (indices.empty()) return;
+  outflow_marked_.resize(fluid_.size(), 0);
+  for (size_t i : indices) {
+    if (i >= fluid_.size()) throw std::out_of_range("remove_as_outflow: fluid index out of range");
+    outflow_marked_[i] = 1;
+  }
+}
+
 // Sorts fluid particles by cell, removes outflow, and builds the neighbour blocks of every fluid cell and
 // of the boundary cells next to fluid.
 template <int D>
@@ -365,10 +376,12 @@ void Solver<D>::sort_and_build_cells() {
       }
     }
     if (!inlets_.empty() && !is_inlet_buffer(fluid_.tag[i])) out = out || in_inlet_buffer(p);
+    if (!outflow_marked_.empty() && outflow_marked_[i]) out = true;
     I.sort_buf[i] = {out ? kRemovedKey : Impl::pack(I.coords(p)), static_cast<uint32_t>(i)};
     removed += out ? 1 : 0;
   }
   potential_outflow_ -= wrap_pe;  // keeps PE(t) + potential_outflow_ continuous across a wrap
+  outflow_marked_.clear();
   std::sort(I.sort_buf.begin(), I.sort_buf.end());
   const size_t keep = n - removed;
   if (removed > 0) {

@@ -124,13 +124,23 @@ class TerrainWatch {
       grid_.update(pos_, vol_, speed_, t, threshold_);
     }
   }
-  // Throws SimulationError naming the first misplaced particle and how many there are.
-  void check(const ParticleArrays<D>& f, real t) const {
+  // Particles over the ground past the corridor's edge leave the model: removed as outflow at the next step
+  // and counted; the run fails once more than terrain.corridor.max_outflow of the released mass has gone so
+  // (the corridor is too narrow for this flow). Anything under the ground or inside a wall is a leak: throws
+  // SimulationError naming the first misplaced particle and how many there are.
+  void check(Solver<D>& solver, real t) {
     if constexpr (D == 3) {
+      const ParticleArrays<D>& f = solver.fluid();
       size_t count = 0, first = 0;
       std::string why;
+      std::vector<size_t> leaving;
       for (size_t i = 0; i < f.size(); ++i) {
-        std::string w = model_->misplaced(Vec<3>(f.pos[0][i], f.pos[1][i], f.pos[2][i]));
+        const Vec<3> p(f.pos[0][i], f.pos[1][i], f.pos[2][i]);
+        if (model_->off_corridor(p)) {
+          leaving.push_back(i);
+          continue;
+        }
+        std::string w = model_->misplaced(p);
         if (w.empty()) continue;
         if (count++ == 0) first = i, why = std::move(w);
       }
@@ -139,8 +149,40 @@ class TerrainWatch {
         s << count << " fluid particle(s) leaked at t = " << t << " s: particle " << f.id[first] << ' ' << why;
         throw SimulationError(s.str());
       }
+      if (leaving.empty()) return;
+      if (outflow_particles_ == 0) {
+        outflow_first_time_ = t;
+        outflow_first_point_ = {f.pos[0][leaving[0]] + model_->origin_x, f.pos[1][leaving[0]] + model_->origin_y};
+      }
+      for (size_t i : leaving) outflow_mass_ += f.mass[i];
+      outflow_particles_ += leaving.size();
+      solver.remove_as_outflow(leaving);
+      const double fraction = outflow_fraction();
+      if (fraction > model_->max_corridor_outflow) {
+        std::ostringstream s;
+        s.precision(3);
+        s << "flow left the modelled corridor: " << 100.0 * fraction << " % of the released mass by t = " << t
+          << " s (terrain.corridor.max_outflow = " << model_->max_corridor_outflow
+          << ", accepted range [0, 1]): widen terrain.corridor (buffer, travel_angle or polygon)";
+        throw SimulationError(s.str());
+      }
     }
   }
+  void set_released_mass(double kg) { released_mass_ = kg; }
+  double outflow_fraction() const { return released_mass_ > 0 ? outflow_mass_ / released_mass_ : 0.0; }
+  // metrics.json's terrain.corridor_outflow.
+  json corridor_outflow() const {
+    json j = {{"particles", outflow_particles_},
+              {"mass_kg", outflow_mass_},
+              {"fraction", outflow_fraction()},
+              {"max_fraction", model_->max_corridor_outflow}};
+    if (outflow_particles_ > 0) {
+      j["first_time_s"] = outflow_first_time_;
+      j["first_point"] = {outflow_first_point_[0], outflow_first_point_[1]};
+    }
+    return j;
+  }
+  size_t outflow_particles() const { return outflow_particles_; }
   const terrain::InundationGrid& grid() const { return grid_; }
   // Fluid positions (local) and volumes at the last update.
   const std::vector<Vec<3>>& positions() const { return pos_; }
@@ -152,6 +194,9 @@ class TerrainWatch {
   terrain::InundationGrid grid_;
   std::vector<Vec<3>> pos_;
   std::vector<real> vol_, speed_;
+  double released_mass_ = 0.0, outflow_mass_ = 0.0, outflow_first_time_ = 0.0;
+  size_t outflow_particles_ = 0;
+  std::array<double, 2> outflow_first_point_{};
 };
 
 // Rasters (GeoTIFF in the DEM's CRS, aligned with its cells), the map PNG, and the terrain metrics.
@@ -360,7 +405,8 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
   size_t leaked = 0;
   try {
     if (watch.active()) {
-      watch.check(solver.fluid(), 0.0);
+      watch.set_released_mass(static_cast<double>(solver.mass_balance().total_initial()));
+      watch.check(solver, 0.0);
       watch.update(solver.fluid(), solver.materials(), solver.time());
     }
     if (opt.snapshots) {
@@ -379,7 +425,7 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
       particle_steps += static_cast<long>(solver.fluid().size());
       const StepStats& st = solver.step();
       // A particle moves well under dp in 10 steps (CFL), so it cannot cross a wall between two checks.
-      if (watch.active() && solver.steps() % 10 == 0) watch.check(solver.fluid(), solver.time());
+      if (watch.active() && solver.steps() % 10 == 0) watch.check(solver, solver.time());
       for (auto& mon : monitors) mon->after_step(solver);
       if (solver.time() >= next_sample - 1e-12) {
         sample_monitors();
@@ -503,7 +549,17 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
     mons.push_back(one);
   }
   m["monitors"] = mons;
-  if (watch.active()) m["terrain"] = write_terrain_outputs(*scene.terrain, watch.grid(), scene.output, opt.out_dir, watch.positions(), watch.volumes());
+  if (watch.active()) {
+    m["terrain"] = write_terrain_outputs(*scene.terrain, watch.grid(), scene.output, opt.out_dir, watch.positions(), watch.volumes());
+    m["terrain"]["corridor_outflow"] = watch.corridor_outflow();
+    if (watch.outflow_particles() > 0 && sum.status != "failed") {
+      std::ostringstream w;
+      w.precision(3);
+      w << watch.outflow_particles() << " particle(s) (" << 100.0 * watch.outflow_fraction()
+        << " % of the released mass) left the modelled corridor and were removed: its edge cut the flow there";
+      m["warnings"].push_back(w.str());
+    }
+  }
   sum.metrics_json = m.dump(2);
   write_atomically(opt.out_dir / "metrics.json", sum.metrics_json + "\n");
   return sum;

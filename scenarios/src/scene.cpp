@@ -278,10 +278,11 @@ terrain::TerrainSpec parse_terrain_spec(const json& j, const std::filesystem::pa
   spec.dem.resolution = t.number_or("resolution", 0.0, 0.0, 1e4);
   spec.layers = static_cast<int>(t.integer("layers", 3, 2, 10));
   if (t.has("corridor")) {
-    Fields c(t.raw("corridor"), "terrain.corridor", {"travel_angle", "buffer", "polygon"});
+    Fields c(t.raw("corridor"), "terrain.corridor", {"travel_angle", "buffer", "polygon", "max_outflow"});
     spec.corridor.travel_angle_deg = c.number_or("travel_angle", 11.0, 0.0, 60.0, true);
     spec.corridor.buffer_m = c.number_or("buffer", 0.0, 0.0, 1e5);
     if (c.has("polygon")) spec.corridor.polygon = parse_polyline(c.raw("polygon"), c.at("polygon"), 3);
+    spec.corridor.max_outflow = c.number_or("max_outflow", 0.01, 0.0, 1.0);
   }
   if (!j.contains("release")) throw SceneError("release", "missing (required in a terrain scene: polygon, depth or volume, material)");
   Fields r(j.at("release"), "release", {"polygon", "depth", "volume", "material"});
@@ -780,12 +781,18 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
     cfg.domain_max[d] = hi[d] + margin;
   }
   if (tmodel) {
-    // The corridor's bounding box; faces on the DEM's edge let the flow leave the modelled area.
+    // The corridor's bounding box; faces on the DEM's edge let the flow leave the modelled area. The other
+    // faces stand `margin` off the box: flow past them has left the corridor, which the run's terrain check
+    // (every 10 steps, well under a margin of travel) removes as corridor outflow rather than a leak.
     cfg.domain_min[0] = 0.0;
     cfg.domain_min[1] = 0.0;
     cfg.domain_max[0] = tmodel->bed.nx * dp;
     cfg.domain_max[1] = tmodel->bed.ny * dp;
-    for (int d = 0; d < 2; ++d) cfg.outflow[d] = tmodel->open_faces[d];
+    for (int d = 0; d < 2; ++d) {
+      cfg.outflow[d] = tmodel->open_faces[d];
+      if (!cfg.outflow[d][0]) cfg.domain_min[d] -= margin;
+      if (!cfg.outflow[d][1]) cfg.domain_max[d] += margin;
+    }
     if (top.has("domain")) throw SceneError("domain", "a terrain scene takes its domain from the corridor");
   }
   if (top.has("domain")) {

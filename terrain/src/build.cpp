@@ -133,6 +133,19 @@ double TerrainModel::bed_at(double x, double y) const {
   return bed.at(i, j);
 }
 
+bool TerrainModel::off_corridor(const Vec<3>& p) const {
+  int i, j;
+  if (bed.cell_of(p[0] + origin_x, p[1] + origin_y, i, j)) return std::isnan(bed_at(p[0], p[1]));
+  // Past the corridor's box: off the corridor unless it went through a face on the DEM's edge (the engine
+  // removes those as outflow from the DEM).
+  const double lo[2] = {bed.x0 - origin_x, bed.y1() - origin_y}, hi[2] = {bed.x1() - origin_x, bed.y0 - origin_y};
+  for (int d = 0; d < 2; ++d) {
+    if (p[d] < lo[d] && open_faces[d][0]) return false;
+    if (p[d] >= hi[d] && open_faces[d][1]) return false;
+  }
+  return true;
+}
+
 std::string TerrainModel::misplaced(const Vec<3>& p) const {
   const double mx = p[0] + origin_x, my = p[1] + origin_y;
   int i, j;
@@ -280,6 +293,7 @@ TerrainModel build_terrain(const TerrainSpec& spec, double dp, long max_particle
   }
   if (kept == 0) throw TerrainError("release.polygon", "lies on DEM nodata: no cell of the corridor has data");
   m.corridor_area = kept * dem.cell_area();
+  m.max_corridor_outflow = spec.corridor.max_outflow;
   m.modelled_fraction = static_cast<double>(kept) / static_cast<double>(valid);
 
   // Bed grid at dp over the corridor's bounding box.

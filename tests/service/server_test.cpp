@@ -143,10 +143,11 @@ TEST_F(Service, IdempotencyKeyReturnsTheOriginalJobAndSweep) {
 
 TEST_F(Service, KillNineWhileAJobRunsThenRestartFinishesEveryJobExactlyOnce) {
   start({"--workers", "1", "--threads-per-job", "1"});
-  // Job 1 runs a few seconds; 2-4 are short. Distinct scenes: four distinct runs.
+  // Job 1 runs a few seconds (10 s simulated: over a second of wall time even on a fast machine, where 2.5 s
+  // was within a progress write of finishing); 2-4 are short. Distinct scenes: four distinct runs.
   std::vector<int64_t> ids;
   for (int k = 0; k < 4; ++k) {
-    const double duration = k == 0 ? 2.5 : 0.05;
+    const double duration = k == 0 ? 10.0 : 0.05;
     const Reply r = post("/jobs", {{"scene", tiny_scene("crash-" + std::to_string(k), duration)}},
                          {{"Idempotency-Key", "crash-" + std::to_string(k)}});
     ASSERT_EQ(r.status, 201) << r.text;
@@ -181,7 +182,7 @@ TEST_F(Service, KillNineWhileAJobRunsThenRestartFinishesEveryJobExactlyOnce) {
   // The stored run of the killed job is complete: its series cover the whole duration.
   const Reply m = get("/jobs/" + std::to_string(ids[0]) + "/metrics");
   ASSERT_EQ(m.status, 200);
-  EXPECT_NEAR(m.body.at("metrics").at("simulated_time_s").get<double>(), 2.5, 0.01);
+  EXPECT_NEAR(m.body.at("metrics").at("simulated_time_s").get<double>(), 10.0, 0.01);
   EXPECT_EQ(server_.terminate() >> 8, 0);
   runout::RunStore store(db_);
   EXPECT_EQ(store.integrity_check(), "ok");
@@ -291,7 +292,9 @@ TEST_F(Service, SweepOverAStoredTerrainSceneServesRastersAndTheMap) {
 
 TEST_F(Service, SigtermPutsTheRunningJobBackInTheQueue) {
   start({"--workers", "1", "--threads-per-job", "1"});
-  const Reply r = post("/jobs", {{"scene", tiny_scene("term", 2.0)}});
+  // 30 s simulated: several seconds of wall time even on a fast machine (progress is written every 0.5 s, and
+  // a 2 s job finished before the signal on CI), well inside the restart's 60 s.
+  const Reply r = post("/jobs", {{"scene", tiny_scene("term", 30.0)}});
   ASSERT_EQ(r.status, 201);
   const int64_t id = r.body.at("id");
   const json running = wait_job(id, [](const json& j) {

@@ -64,8 +64,13 @@ Outcome run_at(double dp, const std::string& label) {
 void expect_no_leaks(const Outcome& o) {
   const json& m = o.metrics;
   ASSERT_EQ(m["status"], "completed") << m.dump(2);
-  EXPECT_EQ(m["leaks"], 0);
-  EXPECT_EQ(m["particles"]["fluid_final"], m["particles"]["fluid_initial"]);  // nothing left the corridor
+  EXPECT_EQ(m["leaks"], 0);  // nothing under the ground
+  // The corridor holds the flow: at most a few isolated particles run past its edge (they are removed and
+  // counted; 1 % of the release fails the run), and every particle is in the model or counted as gone.
+  const json& out = m["terrain"]["corridor_outflow"];
+  EXPECT_LT(out["fraction"].get<double>(), 0.01) << out.dump();
+  EXPECT_EQ(m["particles"]["fluid_final"].get<long>() + out["particles"].get<long>(),
+            m["particles"]["fluid_initial"].get<long>());
   EXPECT_LT(std::abs(m["mass"]["relative_error"].get<double>()), 1e-12);
   // It went down the slope: the centre of mass fell more than the release depth.
   const double released = m["energy"]["potential_released_j"].get<double>();

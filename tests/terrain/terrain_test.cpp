@@ -153,6 +153,23 @@ TEST(TerrainBuild, CorridorRunsDownTheValleyAndOpensTheDemEdgeItReaches) {
   EXPECT_GT(xmax, v.Lx - 1.0);
   EXPECT_TRUE(a.open_faces[0][1]);  // the east edge of the DEM: flow may leave there
   EXPECT_FALSE(a.open_faces[0][0]);
+
+  // Where the flow leaves the model: over a column off the corridor (inside its box) and past the box's
+  // closed faces; not on the corridor, nor past the open east face (the engine's outflow from the DEM).
+  const double east = a.bed.x1() - a.origin_x, north = a.bed.y0 - a.origin_y;
+  const double yc = v.yc() - (a.origin_y - v.N0);  // the thalweg, local
+  EXPECT_FALSE(a.off_corridor(Vec<3>(0.5 * east, yc, a.bed_at(0.5 * east, yc) + 0.5)));
+  EXPECT_TRUE(a.off_corridor(Vec<3>(-0.5, yc, 400.0)));         // upstream of the box: a closed face
+  EXPECT_FALSE(a.off_corridor(Vec<3>(east + 0.5, yc, 250.0)));  // past the DEM's east edge
+  EXPECT_EQ(a.off_corridor(Vec<3>(0.5 * east, north + 0.5, 400.0)), !a.open_faces[1][1]);
+  size_t off = 0;  // the reach is not a rectangle: some columns in its box are off it
+  for (int j = 0; j < a.bed.ny; ++j)
+    for (int i = 0; i < a.bed.nx; ++i)
+      if (std::isnan(a.bed.at(i, j))) {
+        EXPECT_TRUE(a.off_corridor(Vec<3>(a.bed.cx(i) - a.origin_x, a.bed.cy(j) - a.origin_y, 400.0))) << i << ' ' << j;
+        ++off;
+      }
+  EXPECT_GT(off, 0u);
 }
 
 TEST(TerrainBuild, CorridorIgnoresTheRestOfALargerDem) {

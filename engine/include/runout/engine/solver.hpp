@@ -161,6 +161,10 @@ class Solver {
   const std::vector<real>& fluid_shear_rate() const { return shear_rate_; }
   const std::vector<real>& boundary_pressure() const { return boundary_pressure_; }
   const StepStats& last_step() const { return stats_; }
+  // Removes these fluid particles (indices into fluid(), valid until the next step) as outflow at the start
+  // of the next step, for a region the caller models no further (a terrain corridor's edge): their mass goes
+  // to the outflow balance, as through an open domain face.
+  void remove_as_outflow(const std::vector<size_t>& indices);
   // Fluid particle ids are below this (inlets add particles with new ids as the run goes).
   uint32_t id_bound() const { return next_id_; }
   const std::vector<InletSpec<D>>& inlets() const { return inlets_; }
@@ -189,6 +193,7 @@ class Solver {
   ParticleArrays<D> fluid_, boundary_;
   std::vector<LeakRegion<D>> leak_regions_;
   std::vector<InletSpec<D>> inlets_;
+  std::vector<char> outflow_marked_;  // per fluid particle, set by remove_as_outflow; empty when none is
   uint32_t next_id_ = 0;
 
   // fluid per-particle work arrays

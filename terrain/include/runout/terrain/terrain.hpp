@@ -28,6 +28,9 @@ struct CorridorSpec {
   double travel_angle_deg = 11.0;
   double buffer_m = 0.0;  // widening of the reach; 0 = max(20 m, 10 dp)
   Polyline polygon;       // if given, the corridor is this polygon (the reach is not computed)
+  // Flow that crosses the corridor's edge is removed as outflow (the model ends there); the run fails when
+  // more than this fraction of the released mass has left that way: the corridor is then too narrow.
+  double max_outflow = 0.01;
 };
 
 struct ReleaseSpec {
@@ -99,6 +102,7 @@ struct TerrainModel {
   double dp = 0.0;
   double modelled_fraction = 0.0;  // corridor area / area of the DEM with data
   double corridor_area = 0.0;      // [m2]
+  double max_corridor_outflow = 0.01;  // CorridorSpec::max_outflow
   std::vector<StructureInfo> structures;
   std::vector<ProtectedZone> protected_zones;
   Polyline release_polygon;
@@ -126,6 +130,9 @@ struct TerrainModel {
   // Why a fluid particle at local p is where no particle may be (under the ground, inside a wall, off the
   // corridor), or "" if it is fine.
   std::string misplaced(const Vec<3>& p) const;
+  // Whether local p is off the corridor, where the flow leaves the model: over a column outside it, or past
+  // a face of its box that is not on the DEM's edge (flow through those is the engine's outflow).
+  bool off_corridor(const Vec<3>& p) const;
 };
 
 // Throws TerrainError naming the field at fault (terrain.dem, release.polygon, structures[k], dp) for bad
