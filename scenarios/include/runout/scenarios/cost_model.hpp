@@ -11,9 +11,10 @@
 // the neighbours each one visits, passes is 2 when a material carries a stress (velocity gradient, then
 // stress divergence) and 1 for inviscid water; boundary is every boundary particle (their cell sorting is
 // per step; only those next to the flow do pair work, which the fluid term carries). k_D takes up what
-// the rest state does not see (flow speed in the acoustic limit, the force limit of impacts). A small run
-// gains little from a second thread (a step of 300 fluid particles is mostly fork-join overhead), hence the
-// speed-up saturating in the fluid count. The coefficients are fitted by least squares on relative error
+// the rest state does not see (flow speed in the acoustic limit, the force limit of impacts). A run of a few
+// dozen particles gains little from a second thread (its step is mostly fork-join overhead), hence the
+// speed-up saturating in the fluid count; terrain flows of a hundred or more already gain 1.5x (their wall
+// contact is much of the work). The coefficients are fitted by least squares on relative error
 // from stored one-thread runs (`runout calibrate`); e and N_half come from one- against two-thread runs.
 #include <string>
 #include <vector>
