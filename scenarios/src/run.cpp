@@ -452,6 +452,15 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
   } catch (const SimulationError& e) {
     sum.status = "failed";
     sum.error = e.what();
+    // A blow-up of a cohesionless flow without the density floor: say what fixed the known case.
+    if (!solver.config().density_floor &&
+        (sum.error.find("non-finite") != std::string::npos || sum.error.find("fell below the floor") != std::string::npos)) {
+      bool floored_material = false;
+      for (const auto& mat : solver.materials()) floored_material = floored_material || mat.rheology == "friction-hbp";
+      if (floored_material)
+        sum.error += " (a friction material's density can drift far under rho0 without numerics.density_floor = true; "
+                     "see docs/tradeoff.md, \"density floor\")";
+    }
     if (sum.error.find("leaked") != std::string::npos) leaked = std::max<size_t>(1, std::strtoul(sum.error.c_str(), nullptr, 10));
   }
   if (watch.active()) watch.update(solver.fluid(), solver.materials(), solver.time());
@@ -538,7 +547,8 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
                    {"artificial_viscosity", cfg.artificial_viscosity},
                    {"density_diffusion_delta", cfg.density_diffusion_delta},
                    {"viscosity_cap_pa_s", solver.max_viscosity()},
-                   {"shear_rate_floor_1_s", cfg.shear_rate_floor}};
+                   {"shear_rate_floor_1_s", cfg.shear_rate_floor},
+                   {"density_floor", cfg.density_floor}};
   json tags = json::object();
   for (size_t k = 1; k < scene.boundary_tags.size(); ++k) tags[std::to_string(k)] = scene.boundary_tags[k];
   m["boundary_tags"] = tags;

@@ -47,6 +47,9 @@ struct SolverConfig {
   real viscosity_cap_factor = 1.0;
   real shear_rate_floor = 1e-6;     // [1/s]
   real min_dt = 1e-8;               // a step below this stops the run [s]
+  // Keep a material's fluid density at or above the density where the equation of state reaches its tension
+  // floor (rho0 for cohesionless friction-HBP; liquids, without a floor, are untouched): see step().
+  bool density_floor = false;
   std::array<real, 3> gravity{0.0, 0.0, -9.81};  // first D components are used
   real boundary_density = 1000.0;   // reference density of boundary particles [kg/m^3]
   BoundaryPressure boundary_pressure = BoundaryPressure::dbc;
