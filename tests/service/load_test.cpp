@@ -20,6 +20,7 @@ TEST_F(Load, ThousandSubmissionsFromSixteenClientsAreAcceptedExactlyOnce) {
   std::vector<int64_t> ids;
   std::map<int, int64_t> id_of;  // submission -> job id
   std::atomic<int> failures{0}, retried{0};
+  std::vector<std::string> transport_errors, failure_text;
   std::atomic<bool> done{false};
 
   // /health polled throughout; every poll must answer 200.
@@ -49,9 +50,24 @@ TEST_F(Load, ThousandSubmissionsFromSixteenClientsAreAcceptedExactlyOnce) {
       for (int i = t; i < kJobs; i += kClients) {
         const std::string key = "load-" + std::to_string(i);
         const std::string body = json{{"scene", tiny_scene("load-" + std::to_string(i))}}.dump();
+        // A transport error (no response) is retried with the same key, as a client of an idempotent API
+        // does; the job must still exist once. Measured (2026-11-29, 10 runs beside a 2-thread run): in
+        // 4, one to three clients' first request of the 17 connections opened at once read nothing back
+        // (httplib's accept burst); never a later request. The suite had failed once on such a request.
         auto r = c.Post("/api/v1/jobs", {{"Idempotency-Key", key}}, body, "application/json");
-        if (!r || r->status != 201) {
+        const bool first_lost = !r;
+        for (int attempt = 0; !r && attempt < 3; ++attempt) {
+          {
+            std::lock_guard lock(mutex);
+            transport_errors.push_back(key + ": " + httplib::to_string(r.error()));
+          }
+          r = c.Post("/api/v1/jobs", {{"Idempotency-Key", key}}, body, "application/json");
+        }
+        // 201 created; after a lost first attempt 200 is right too (it had created the job).
+        if (!r || !(r->status == 201 || (first_lost && r->status == 200))) {
+          std::lock_guard lock(mutex);
           ++failures;
+          failure_text.push_back(key + ": " + (r ? std::to_string(r->status) + " " + r->body : httplib::to_string(r.error())));
           continue;
         }
         const int64_t id = json::parse(r->body).at("id");
@@ -75,7 +91,15 @@ TEST_F(Load, ThousandSubmissionsFromSixteenClientsAreAcceptedExactlyOnce) {
             << " clients in " << seconds << " s; /health answered " << health_ok.load() << " times, max "
             << health_max_ms << " ms\n";
 
-  EXPECT_EQ(failures.load(), 0);
+  auto joined = [](const std::vector<std::string>& v) {
+    std::string out;
+    for (const auto& x : v) out += "\n  " + x;
+    return out;
+  };
+  EXPECT_EQ(failures.load(), 0) << joined(failure_text);
+  // A keep-alive race may cost a retry now and then; more than 1 % would be the server dropping requests.
+  EXPECT_LE(transport_errors.size(), static_cast<size_t>(kJobs / 100)) << joined(transport_errors);
+  if (!transport_errors.empty()) std::cerr << "[load] transport errors, retried:" << joined(transport_errors) << '\n';
   ASSERT_EQ(ids.size(), static_cast<size_t>(kJobs));
   EXPECT_EQ(std::set<int64_t>(ids.begin(), ids.end()).size(), static_cast<size_t>(kJobs));
   EXPECT_EQ(health_bad.load(), 0);
