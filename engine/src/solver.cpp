@@ -343,6 +343,7 @@ void Solver<D>::remove_as_outflow(const std::vector<size_t>& indices) {
     if (i >= fluid_.size()) throw std::out_of_range("remove_as_outflow: fluid index out of range");
     outflow_marked_[i] = 1;
   }
+  sort_and_build_cells();  // removes them now (the next step's sort would too, but a run may end first)
 }
 
 // Sorts fluid particles by cell, removes outflow, and builds the neighbour blocks of every fluid cell and

@@ -124,8 +124,7 @@ class TerrainWatch {
       grid_.update(pos_, vol_, speed_, t, threshold_);
     }
   }
-  // Particles over the ground past the corridor's edge leave the model: removed as outflow at the next step
-  // and counted; the run fails once more than terrain.corridor.max_outflow of the released mass has gone so
+  // Particles over the ground past the corridor's edge leave the model: removed as outflow and counted; the run fails once more than terrain.corridor.max_outflow of the released mass has gone so
   // (the corridor is too narrow for this flow). Anything under the ground or inside a wall is a leak: throws
   // SimulationError naming the first misplaced particle and how many there are.
   void check(Solver<D>& solver, real t) {

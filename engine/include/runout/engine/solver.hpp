@@ -164,9 +164,9 @@ class Solver {
   const std::vector<real>& fluid_shear_rate() const { return shear_rate_; }
   const std::vector<real>& boundary_pressure() const { return boundary_pressure_; }
   const StepStats& last_step() const { return stats_; }
-  // Removes these fluid particles (indices into fluid(), valid until the next step) as outflow at the start
-  // of the next step, for a region the caller models no further (a terrain corridor's edge): their mass goes
-  // to the outflow balance, as through an open domain face.
+  // Removes these fluid particles (indices into fluid()) as outflow, at once, for a region the caller models
+  // no further (a terrain corridor's edge): their mass goes to the outflow balance, as through an open domain
+  // face. The remaining particles are re-sorted: indices held before the call are invalid after it.
   void remove_as_outflow(const std::vector<size_t>& indices);
   // Fluid particle ids are below this (inlets add particles with new ids as the run goes).
   uint32_t id_bound() const { return next_id_; }
