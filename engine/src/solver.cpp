@@ -1247,12 +1247,27 @@ const StepStats& Solver<D>::step() {
 
   // A particle in contact with a wall loses the velocity component that takes it further in (an inelastic
   // contact: it never adds energy). The wall pressure holds a resting sheet but does not grow as a particle
-  // closes in: without this, lone particles went 1 dp under the Jacksboro terrain.
+  // closes in: without this, lone particles went 1 dp under the Jacksboro terrain. The normal impulse taken
+  // is part of the wall's normal force, so a friction material's Coulomb friction acts on it too: the
+  // tangential speed drops by up to mu_wall |v_n| (never reversing). Without it a lone particle, whose weight
+  // the contact rather than the wall pressure carries, slid on without friction (docs/design.md).
+  std::vector<real> contact_friction(materials_.size());
+  for (size_t k = 0; k < materials_.size(); ++k) contact_friction[k] = rheologies_[k]->wall_friction_coefficient();
+  const real* contact_friction_of = contact_friction.data();
   auto stop_wall_approach = [&](size_t i) {
     real vn = 0;
     for (int d = 0; d < D; ++d) vn += fluid_.vel[d][i] * contact_normal_[d][i];
-    if (vn < 0)
-      for (int d = 0; d < D; ++d) fluid_.vel[d][i] -= vn * contact_normal_[d][i];
+    if (vn >= 0) return;
+    real vt2 = 0;
+    for (int d = 0; d < D; ++d) {
+      fluid_.vel[d][i] -= vn * contact_normal_[d][i];
+      vt2 += fluid_.vel[d][i] * fluid_.vel[d][i];
+    }
+    const real mu = contact_friction_of[fluid_.material[i]];
+    if (mu > 0 && vt2 > 0) {
+      const real keep = std::max(real(0), 1 + mu * vn / std::sqrt(vt2));
+      for (int d = 0; d < D; ++d) fluid_.vel[d][i] *= keep;
+    }
   };
 
   if (config_.integrator == Integrator::symplectic) {
