@@ -1233,7 +1233,8 @@ const StepStats& Solver<D>::step() {
     for (size_t k = 0; k < materials_.size(); ++k) {
       const real B = config_.speed_of_sound * config_.speed_of_sound * materials_[k].density / config_.eos_gamma;
       const real p_min = -rheologies_[k]->tensile_strength();
-      if (p_min > -B) rho_floor[k] = materials_[k].density * std::pow(1.0 + p_min / B, 1.0 / config_.eos_gamma);
+      if (p_min > -B)
+        rho_floor[k] = (1.0 - config_.max_dilatancy) * materials_[k].density * std::pow(1.0 + p_min / B, 1.0 / config_.eos_gamma);
     }
   }
   const real* rho_floor_of = rho_floor.data();

@@ -547,7 +547,8 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
                    {"density_diffusion_delta", cfg.density_diffusion_delta},
                    {"viscosity_cap_pa_s", solver.max_viscosity()},
                    {"shear_rate_floor_1_s", cfg.shear_rate_floor},
-                   {"density_floor", cfg.density_floor}};
+                   {"density_floor", cfg.density_floor},
+                   {"max_dilatancy", cfg.max_dilatancy}};
   json tags = json::object();
   for (size_t k = 1; k < scene.boundary_tags.size(); ++k) tags[std::to_string(k)] = scene.boundary_tags[k];
   m["boundary_tags"] = tags;

@@ -691,7 +691,7 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
              {"kernel", "smoothing_ratio", "speed_of_sound", "speed_of_sound_beta", "depth_scale", "integrator",
               "cfl", "density_diffusion", "density_diffusion_delta", "artificial_viscosity", "viscosity_cap",
               "viscosity_cap_factor", "shear_rate_floor", "min_dt", "boundary_density", "verlet_reset_steps", "boundary_pressure",
-              "density_floor"});
+              "density_floor", "max_dilatancy"});
   cfg.kernel = kernel_from_name(num.string_or("kernel", "wendland", kernel_names()));
   cfg.smoothing_length = num.number_or("smoothing_ratio", 1.5, 1.0, 3.0) * dp;
   const std::string integ = num.string_or("integrator", "symplectic", {"symplectic", "verlet"});
@@ -730,6 +730,9 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
   cfg.shear_rate_floor = num.number_or("shear_rate_floor", 1e-6, 0.0, 1e3, true);
   cfg.min_dt = num.number_or("min_dt", 1e-8, 0.0, 1.0, true);
   cfg.density_floor = num.boolean_or("density_floor", false);
+  cfg.max_dilatancy = num.number_or("max_dilatancy", 0.0, 0.0, 0.5);
+  if (num.has("max_dilatancy") && !cfg.density_floor)
+    throw SceneError(num.at("max_dilatancy"), "sets how far under rho0 the density floor stands: needs numerics.density_floor = true");
   // Inlets need walls without memory: a DBC wall particle under a buffer that moves over it gains density
   // from the one-sided inflow at the plane and never loses it (its density is floored at rho0), until it
   // throws the new flow off the bed (measured: tests/engine/inlet_test.cpp detaches at t < 0.2 s with dbc).

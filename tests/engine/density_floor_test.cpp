@@ -102,3 +102,38 @@ TEST(DensityFloor, OptionMustBeABoolean) {
     EXPECT_NE(std::string(e.what()).find("numerics.density_floor"), std::string::npos) << e.what();
   }
 }
+
+// numerics.max_dilatancy: the floor stands that fraction under the tension-floor density (a granular material
+// may dilate, loose against dense packing, before its density is held). The collapsing column drifts under
+// 0.99 rho0 without a floor (above), so a 5 % allowance is reached and held.
+TEST(DensityFloor, MaxDilatancyLowersTheFloorByThatFraction) {
+  json s = column(friction(0.0), true);
+  s["numerics"]["max_dilatancy"] = 0.05;
+  const Outcome on = run(s);
+  EXPECT_GE(on.min_rho, 0.95 * on.rho0 * (1 - 1e-12));
+  EXPECT_LT(on.min_rho, 0.99 * on.rho0) << "the material never dilated past 1 %: the allowance was not used";
+  EXPECT_EQ(on.mass_error, 0.0);
+}
+
+TEST(DensityFloor, MaxDilatancyIsRefusedOutsideItsRangeOrWithoutTheFloor) {
+  auto message = [](const json& s) {
+    try {
+      parse_scene(s.dump());
+    } catch (const SceneError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  json s = column(friction(0.0), true);
+  s["numerics"]["max_dilatancy"] = 0.6;
+  const std::string too_big = message(s);
+  EXPECT_NE(too_big.find("numerics.max_dilatancy"), std::string::npos) << too_big;
+  EXPECT_NE(too_big.find("0.5"), std::string::npos) << too_big;  // the accepted range
+  s["numerics"]["max_dilatancy"] = -0.1;
+  EXPECT_NE(message(s).find("numerics.max_dilatancy"), std::string::npos);
+  s = column(friction(0.0), false);
+  s["numerics"]["max_dilatancy"] = 0.1;
+  const std::string no_floor = message(s);
+  EXPECT_NE(no_floor.find("numerics.max_dilatancy"), std::string::npos) << no_floor;
+  EXPECT_NE(no_floor.find("density_floor"), std::string::npos) << no_floor;
+}

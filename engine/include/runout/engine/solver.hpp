@@ -50,6 +50,9 @@ struct SolverConfig {
   // Keep a material's fluid density at or above the density where the equation of state reaches its tension
   // floor (rho0 for cohesionless friction-HBP; liquids, without a floor, are untouched): see step().
   bool density_floor = false;
+  // How far under that density the floor stands, as a fraction: 0.1 lets a granular material dilate 10 %
+  // (loose against dense random packing) before its density is held.
+  real max_dilatancy = 0.0;
   std::array<real, 3> gravity{0.0, 0.0, -9.81};  // first D components are used
   real boundary_density = 1000.0;   // reference density of boundary particles [kg/m^3]
   BoundaryPressure boundary_pressure = BoundaryPressure::dbc;
