@@ -13,11 +13,18 @@
 //    rho g h |dh/dx| <= tau_y, so against the wall the static profile is h^2 = 2 tau_y (x_f - x) / (rho g), and
 //    holding the column's area (0.02 m^2) it ends at x_f = (3 A / (2 sqrt(2 tau_y / (rho g))))^(2/3) = 0.319 m;
 //    5 % below that is allowed for the shallow-layer approximation at the steep toe;
-//  * no leak, mass exact, Mach number under 0.1.
+//  * no leak, mass exact, Mach number under 0.1;
+//  * the frictional deposit's bulk is the experiment's: where it thins to 1 cm within 2 dp of where the
+//    experiment's does (0.368 m; the surface is resolved to a particle), and its height profile within 1 cm
+//    rms of the experiment's (10 % of the column's height). Not its front particle: a one-particle sheet
+//    (5 mm) runs on ahead of the bulk (0.52 m against the experiment's last 1.5 mm of deposit at 0.44 m),
+//    reported in docs/validation.md.
 // Not asserted: the thesis' statement that the plain HBP material "runs farther and flatter". With the yield
 // stress convention of this engine (simple shear gives tau_xy = tau_y; tests/engine/rheology_test.cpp) a
 // 0.36 kPa deposit can rest at 0.32 m, shorter than the experiment's 0.44 m, so the claim is not a physical
-// fact here; the measured ordering is reported in docs/validation.md.
+// fact here; at tau_y = sin(phi) x the friction run's own mean pressure (0.26 kPa) plain HBP ends where the
+// friction deposit does, and only under ~0.2 kPa does it run farther and flatter (docs/validation.md, "Status
+// now", where the tau_y sweep is).
 //
 // Experimental final surface: Bui et al. (2008), Int. J. Numer. Anal. Meth. Geomech. 32:1537-1570,
 // doi:10.1002/nag.688, as digitised in github.com/ewyser/ep2-3De, ep23De_v1.0/ep3De_v1.0/scripts/setting_Exp1a/
@@ -134,25 +141,46 @@ double height_at(const std::vector<std::pair<double, double>>& s, double x) {
   return s.back().second;
 }
 
+// Where a profile last falls to `depth` (linear between the points; 0 if it never reaches it).
+double extent_at_depth(const std::vector<std::pair<double, double>>& s, double depth) {
+  for (size_t i = s.size(); i-- > 1;)
+    if (s[i - 1].second >= depth && s[i].second < depth)
+      return s[i - 1].first + (s[i - 1].second - depth) / (s[i - 1].second - s[i].second) * (s[i].first - s[i - 1].first);
+  return !s.empty() && s.back().second >= depth ? s.back().first : 0.0;
+}
+
+// Rms height difference to the experiment every 2 cm from 0.01 m to 0.69 m, where either profile has material.
+double rms_against_experiment(const std::vector<std::pair<double, double>>& s);
+
 void print(const char* name, const Deposit& d) {
   // Profile against the experiment, every 2 cm.
   std::printf("  %s: status %s, %ld steps, %.1f s wall, max Mach %.3f\n", name, d.status.c_str(), d.steps,
               d.wall_seconds, d.max_mach);
   std::printf("    x [m]   h sim [m]   h Bui et al. 2008 [m]\n");
-  double sq = 0;
-  int n = 0;
   for (double x = 0.01; x <= 0.7; x += 0.02) {
     const double hs = height_at(d.surface, x), he = height_at(kBuiSurface, x);
     if (hs == 0 && he == 0) continue;
     std::printf("    %.2f    %.4f      %.4f\n", x, hs, he);
-    sq += (hs - he) * (hs - he);
-    ++n;
   }
+  std::printf("    extent at 1 cm depth %.3f m (experiment %.3f m)\n", extent_at_depth(d.surface, 0.01),
+              extent_at_depth(kBuiSurface, 0.01));
   std::printf(
       "    run-out %.3f m (experiment %.3f m), height at the wall %.4f m (experiment %.4f m), rms height "
       "difference %.4f m; kinetic energy end/peak %.2e (peak %.3f J/m), front moved %.4f m over the last 0.2 s\n",
-      d.runout, kBuiSurface.back().first, d.wall_height, kBuiSurface.front().second, std::sqrt(sq / std::max(n, 1)),
+      d.runout, kBuiSurface.back().first, d.wall_height, kBuiSurface.front().second, rms_against_experiment(d.surface),
       d.ke_end / d.ke_peak, d.ke_peak, d.front_end - d.front_before);
+}
+
+double rms_against_experiment(const std::vector<std::pair<double, double>>& s) {
+  double sq = 0;
+  int n = 0;
+  for (double x = 0.01; x <= 0.7; x += 0.02) {
+    const double hs = height_at(s, x), he = height_at(kBuiSurface, x);
+    if (hs == 0 && he == 0) continue;
+    sq += (hs - he) * (hs - he);
+    ++n;
+  }
+  return std::sqrt(sq / std::max(n, 1));
 }
 
 }  // namespace
@@ -178,6 +206,9 @@ TEST(ColumnCollapseValidation, FrictionColumnComesToRestOnItsOwn) {
   const Deposit fr = run("column_collapse_2d.json", "column_collapse_2d");
   print("friction-HBP (phi = 19.8 deg)", fr);
   expect_run_ok_and_at_rest(fr, probe.dp);
+  EXPECT_NEAR(extent_at_depth(fr.surface, 0.01), extent_at_depth(kBuiSurface, 0.01), 2 * probe.dp)
+      << "where the deposit thins to 1 cm";
+  EXPECT_LT(rms_against_experiment(fr.surface), 0.01) << "rms height difference to the experiment";
 }
 
 TEST(ColumnCollapseValidation, PlainHbpComesToRestNoShorterThanItsStaticDeposit) {
