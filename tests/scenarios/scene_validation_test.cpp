@@ -177,6 +177,14 @@ const std::vector<Case> kRefused = {
          "numerics.artificial_viscosity", {"[0, 10]"}),
     edit("VerletResetStepsZero", set(P("/numerics/verlet_reset_steps"), 0), "numerics.verlet_reset_steps",
          {"[1, 1000]"}),
+    // Verlet's leapfrog under a viscoplastic material's capped viscosity (tests/engine/verlet_test.cpp).
+    edit("VerletWithAFrictionMaterial",
+         [](json& j) {
+           j["numerics"]["integrator"] = "verlet";
+           j["materials"][0] = {{"name", "debris"}, {"rheology", "friction-hbp"}, {"density", 2000},
+                                {"viscosity", 1}, {"friction_angle", 30}};
+         },
+         "numerics.integrator", {"'debris'", "accepted here: symplectic"}),
     edit("DepthScaleZero", set(P("/numerics/depth_scale"), 0), "numerics.depth_scale", {"(0, 100000]"}),
     edit("SeriesIntervalZero", set(P("/output/series_interval"), 0), "output.series_interval", {"(0, 10000]"}),
     edit("MaxParticlesZero", set(P("/limits/max_particles"), 0), "limits.max_particles", {"[1, 200000000]"}),
