@@ -60,11 +60,16 @@ std::optional<Message> try_receive(int source, int tag) {
 // is left pending (rank 0 then ends without MPI_Finalize, MpiWorld::finish).
 class Outbox {
  public:
-  void send(int dest, int tag, std::string text) {
+  // synchronous: complete only once the receiver has taken it (MPI_Issend). A small standard send completes
+  // as soon as it is buffered, and a sender that then leaves without MPI_Finalize can take it along unsent.
+  void send(int dest, int tag, std::string text, bool synchronous = false) {
     auto& s = pending_.emplace_back();
     s.text = std::move(text);
     s.dest = dest;
-    MPI_Isend(s.text.data(), static_cast<int>(s.text.size()), MPI_CHAR, dest, tag, MPI_COMM_WORLD, &s.request);
+    if (synchronous)
+      MPI_Issend(s.text.data(), static_cast<int>(s.text.size()), MPI_CHAR, dest, tag, MPI_COMM_WORLD, &s.request);
+    else
+      MPI_Isend(s.text.data(), static_cast<int>(s.text.size()), MPI_CHAR, dest, tag, MPI_COMM_WORLD, &s.request);
   }
   void progress() {
     for (auto it = pending_.begin(); it != pending_.end();) {
@@ -165,8 +170,11 @@ MpiWorld::~MpiWorld() {
 int MpiWorld::finish(int code) {
   if (finished_) return code;
   finished_ = true;
-  if (rank_ == 0 && peer_lost_) {
-    spdlog::warn("a worker rank was lost: ending without MPI_Finalize (it would wait for that rank)");
+  if (peer_lost_) {
+    if (rank_ == 0)
+      spdlog::warn("a worker rank was lost: ending without MPI_Finalize (it would wait for that rank)");
+    else
+      spdlog::info("rank {}: a rank was lost: ending without MPI_Finalize (it would wait for that rank)", rank_);
     spdlog::default_logger()->flush();
     std::fflush(stdout);
     std::fflush(stderr);
@@ -178,7 +186,7 @@ int MpiWorld::finish(int code) {
 
 void release_workers(MpiWorld& world) {
   Outbox out;
-  for (int w = 1; w < world.size(); ++w) out.send(w, kShutdown, "{}");
+  for (int w = 1; w < world.size(); ++w) out.send(w, kShutdown, "{}", /*synchronous=*/true);
   out.drain(std::vector<bool>(static_cast<size_t>(world.size()), true), 30);
 }
 
@@ -227,6 +235,7 @@ int run_worker(MpiWorld& world, const MpiSweepOptions& options, const std::atomi
       if (heard_root && seconds_since(last_from_root) > options.heartbeat_timeout) {
         spdlog::error("rank {}: no word from rank 0 for {:.0f} s (--heartbeat-timeout): exiting", world.rank(),
                       options.heartbeat_timeout);
+        world.set_peer_lost();
         code = 1;
         break;
       }
@@ -235,7 +244,13 @@ int run_worker(MpiWorld& world, const MpiSweepOptions& options, const std::atomi
     }
     last_from_root = Clock::now();
     heard_root = true;
-    if (m->tag == kShutdown) break;
+    if (m->tag == kShutdown) {
+      // A rank is gone (rank 0 lost a worker, or leaves without MPI_Finalize): MPI_Finalize here would wait
+      // for it, and mpirun with the job (measured: 900 s, until the test killed it).
+      const json said = json::parse(m->text, nullptr, false);
+      if (said.is_object() && said.value("peer_lost", false)) world.set_peer_lost();
+      break;
+    }
     if (m->tag == kPing) continue;
 
     // A run: execute it here, send its record to rank 0, which stores it.
@@ -304,6 +319,7 @@ int run_worker(MpiWorld& world, const MpiSweepOptions& options, const std::atomi
     if (!sent) {
       spdlog::error("rank {}: rank 0 did not take the result of run {} within {:.0f} s: exiting", world.rank(),
                     o.variant, options.heartbeat_timeout);
+      world.set_peer_lost();
       code = 1;
       break;
     }
@@ -539,10 +555,12 @@ SweepResult coordinate_sweep(MpiWorld& world, RunStore& store, const Sweep& swee
   }
 
   // Done: every worker may exit (a lost one too, in case it was only slow; its send is never waited for).
+  // With a worker lost, rank 0 ends without MPI_Finalize, and tells the others to do the same.
   std::vector<bool> alive(workers.size());
+  const std::string shutdown = world.peer_lost() ? R"({"peer_lost": true})" : "{}";
   for (size_t w = 1; w < workers.size(); ++w) {
     alive[w] = workers[w].alive;
-    out.send(static_cast<int>(w), kShutdown, "{}");
+    out.send(static_cast<int>(w), kShutdown, shutdown, /*synchronous=*/true);
   }
   if (!out.drain(alive, mpi_options.heartbeat_timeout)) {
     spdlog::warn("some worker did not take its shutdown message");

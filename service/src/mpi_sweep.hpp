@@ -62,13 +62,14 @@ class MpiWorld {
   // when there are workers).
   int default_threads() const { return default_threads_; }
 
-  // Rank 0 lost a worker (declared dead after its silence).
+  // A rank is gone: on rank 0 a worker declared dead after its silence; on a worker, rank 0 said so in its
+  // shutdown message, or went silent itself.
   void set_peer_lost() { peer_lost_ = true; }
   bool peer_lost() const { return peer_lost_; }
 
-  // Ends MPI and returns `code`. When rank 0 lost a worker it does not call MPI_Finalize, which waits for
-  // every rank (a hung worker would keep it waiting for ever): it flushes stdout and stderr and ends the
-  // process here with `code`. The caller must have closed the run store first (its last transaction is
+  // Ends MPI and returns `code`. When a rank was lost it does not call MPI_Finalize, which waits for every
+  // rank (a dead or hung one would keep it waiting for ever, and mpirun with it): it flushes stdout and
+  // stderr and ends the process here with `code`. The caller must have closed the run store first (its last transaction is
   // committed and fsync'd by then, so nothing is lost).
   int finish(int code);
 
