@@ -1202,7 +1202,7 @@ void Solver<D>::evaluate(bool compute_dt) {
       s << fmt_time(time_) << ": time step " << stats_.dt << " s fell below the floor " << config_.min_dt
         << " s (force limit " << stats_.dt_force << " s, acoustic " << stats_.dt_acoustic << " s, viscous "
         << stats_.dt_viscous << " s)";
-      throw SimulationError(s.str());
+      throw SimulationError(s.str(), SimulationError::Cause::dt_floor);
     }
   }
 }
@@ -1364,7 +1364,7 @@ void Solver<D>::check_state() {
     std::ostringstream s;
     s << fmt_time(time_) << ": fluid particle " << fluid_.id[i] << " has a non-finite " << what << " (step "
       << steps_ << ", dt " << stats_.dt << " s)";
-    throw SimulationError(s.str());
+    throw SimulationError(s.str(), SimulationError::Cause::non_finite);
   }
   stats_.max_speed = std::sqrt(vmax2);
   max_mach_ = std::max(max_mach_, stats_.max_speed / config_.speed_of_sound);
@@ -1390,20 +1390,23 @@ void Solver<D>::check_state() {
     for (int d = 0; d < D; ++d) q.axis[d] = r.box.axis(d);
     regions.push_back(q);
   }
-#pragma omp parallel for reduction(min : leak)
+  size_t leaked = 0;
+#pragma omp parallel for reduction(min : leak) reduction(+ : leaked)
   for (size_t i = 0; i < n; ++i) {
     if (is_inlet_buffer(fluid_.tag[i])) continue;  // moved by their inlet, checked when it is built
     const Vec<D> p = fluid_.position(i);
+    bool out = false;
     for (int d = 0; d < D; ++d) {
       if (config_.periodic[d] || d == D - 1) continue;  // the vertical top is open; the bottom is a wall
-      if ((p[d] < config_.domain_min[d] && !config_.outflow[d][0]) ||
-          (p[d] > config_.domain_max[d] && !config_.outflow[d][1]))
-        leak = std::min(leak, static_cast<long>(i));
+      out = out || (p[d] < config_.domain_min[d] && !config_.outflow[d][0]) ||
+            (p[d] > config_.domain_max[d] && !config_.outflow[d][1]);
     }
-    if (!config_.periodic[D - 1] && p[D - 1] < config_.domain_min[D - 1] && !config_.outflow[D - 1][0])
+    out = out || (!config_.periodic[D - 1] && p[D - 1] < config_.domain_min[D - 1] && !config_.outflow[D - 1][0]);
+    for (const auto& r : regions) out = out || r.contains(p);
+    if (out) {
       leak = std::min(leak, static_cast<long>(i));
-    for (const auto& r : regions)
-      if (r.contains(p)) leak = std::min(leak, static_cast<long>(i));
+      ++leaked;
+    }
   }
   if (leak != std::numeric_limits<long>::max()) {
     const size_t i = static_cast<size_t>(leak);
@@ -1419,7 +1422,8 @@ void Solver<D>::check_state() {
     s << " at position (";
     for (int d = 0; d < D; ++d) s << (d ? ", " : "") << p[d];
     s << ") m";
-    throw SimulationError(s.str());
+    if (leaked > 1) s << " (" << leaked << " particles in all)";
+    throw SimulationError(s.str(), SimulationError::Cause::leak, leaked);
   }
 }
 

@@ -146,7 +146,7 @@ class TerrainWatch {
       if (count) {
         std::ostringstream s;
         s << count << " fluid particle(s) leaked at t = " << t << " s: particle " << f.id[first] << ' ' << why;
-        throw SimulationError(s.str());
+        throw SimulationError(s.str(), SimulationError::Cause::leak, count);
       }
       if (leaving.empty()) return;
       if (outflow_particles_ == 0) {
@@ -453,14 +453,14 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
     sum.error = e.what();
     // A blow-up of a cohesionless flow without the density floor: say what fixed the known case.
     if (!solver.config().density_floor &&
-        (sum.error.find("non-finite") != std::string::npos || sum.error.find("fell below the floor") != std::string::npos)) {
+        (e.cause == SimulationError::Cause::non_finite || e.cause == SimulationError::Cause::dt_floor)) {
       bool floored_material = false;
       for (const auto& mat : solver.materials()) floored_material = floored_material || mat.rheology == "friction-hbp";
       if (floored_material)
         sum.error += " (a friction material's density can drift far under rho0 without numerics.density_floor = true; "
                      "see docs/tradeoff.md, \"density floor\")";
     }
-    if (sum.error.find("leaked") != std::string::npos) leaked = std::max<size_t>(1, std::strtoul(sum.error.c_str(), nullptr, 10));
+    if (e.cause == SimulationError::Cause::leak) leaked = e.leaked_particles;
   }
   if (watch.active()) watch.update(solver.fluid(), solver.materials(), solver.time());
   sum.wall_seconds = std::chrono::duration<double>(clock::now() - t0).count();
