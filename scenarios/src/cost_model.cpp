@@ -64,11 +64,10 @@ CostFeatures cost_features(const Scene& scene) {
         if (g > 0) dt = std::min(dt, c.cfl * std::sqrt(h / g));
         f.passes = 1;
         for (const auto& m : setup.materials) {
-          if (make_rheology(m)->is_inviscid()) continue;
+          const auto rheology = make_rheology(m);
+          if (rheology->is_inviscid()) continue;
           f.passes = 2;
-          const bool newtonian = m.flow_index == 1.0 && m.yield_stress == 0.0 && m.friction_angle_deg == 0.0 &&
-                                 m.cohesion == 0.0;
-          const double mu = newtonian ? std::min<double>(m.viscosity, cap) : cap;
+          const double mu = std::min<double>(rheology->viscosity_bound(), cap);
           dt = std::min(dt, 0.125 * h * h * m.density / mu);
         }
         f.dt0 = dt;

@@ -1,5 +1,6 @@
 #include "runout/scenarios/scene.hpp"
 
+#include "runout/engine/eos.hpp"
 #include "runout/terrain/terrain.hpp"
 
 #include <algorithm>
@@ -26,9 +27,11 @@ std::string fmt(real v) {
 // Reads fields of one JSON object, refusing unknown keys and out-of-range values with the field's path.
 class Fields {
  public:
-  Fields(const json& j, std::string path, std::set<std::string> allowed) : j_(j), path_(std::move(path)) {
+  // partial: read a few fields of an object whose other keys another reader checks.
+  Fields(const json& j, std::string path, std::set<std::string> allowed, bool partial = false)
+      : j_(j), path_(std::move(path)) {
     if (!j_.is_object()) throw SceneError(path_.empty() ? "(root)" : path_, "must be a JSON object");
-    for (auto it = j_.begin(); it != j_.end(); ++it) {
+    for (auto it = j_.begin(); it != j_.end() && !partial; ++it) {
       if (!allowed.count(it.key())) {
         std::string list;
         for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
@@ -248,6 +251,35 @@ real box_volume_particles(const json& j, int D, real dp) {
   return n;
 }
 
+// One material: its name, its rheology by name, the bulk density and the rheology's own parameters, each
+// key, default and range taken from the model's descriptor (engine/src/rheology/).
+MaterialParams parse_material(const json& j, const std::string& path) {
+  if (!j.is_object()) throw SceneError(path, "must be a JSON object");
+  MaterialParams m;
+  {
+    Fields head(j, path, {"name", "rheology"}, /*partial=*/true);
+    m.name = head.string("name");
+    m.rheology = head.string("rheology", rheology_names());
+  }
+  const RheologyModel& model = rheology_model(m.rheology);
+  std::set<std::string> allowed = {"name", "rheology", "density"};
+  for (const auto& p : model.parameters) allowed.insert(p.key);
+  Fields f(j, path, allowed);
+  const ParameterSpec& rho = material_density_spec();
+  m.density = f.number(rho.key, rho.lo, rho.hi, rho.lo_open, rho.hi_open);
+  for (const auto& p : model.parameters) {
+    if (p.required && !f.has(p.key))
+      throw SceneError(f.at(p.key), "missing (required for rheology '" + m.rheology + "', in " + p.range_text() + ")");
+    if (f.has(p.key)) m.set(p.key, f.number(p.key, p.lo, p.hi, p.lo_open, p.hi_open));
+  }
+  try {
+    (void)make_rheology(m);
+  } catch (const std::invalid_argument& e) {
+    throw SceneError(path, e.what());
+  }
+  return m;
+}
+
 const std::vector<std::string> kTopKeys = {"name",   "dimensions", "dp",     "duration", "gravity", "materials",
                                            "numerics", "fluid",    "boundaries", "domain", "output", "limits",
                                            "description", "terrain", "release", "structures",
@@ -391,30 +423,9 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
     throw SceneError("materials", "must be an array of 1 to 16 materials");
   std::map<std::string, uint16_t> material_index;
   for (size_t k = 0; k < mats.size(); ++k) {
-    const std::string path = "materials[" + std::to_string(k) + "]";
-    Fields f(mats[k], path,
-             {"name", "rheology", "density", "viscosity", "flow_index", "regularisation", "yield_stress",
-              "friction_angle", "cohesion"});
-    MaterialParams m;
-    m.name = f.string("name");
-    if (material_index.count(m.name)) throw SceneError(f.at("name"), "duplicate material name '" + m.name + "'");
-    m.rheology = f.string("rheology", rheology_names());
-    m.density = f.number("density", 0.0, 1e5, true);
-    m.viscosity = f.number_or("viscosity", m.rheology == "newtonian" ? 0.0 : 1e-3, 0.0, 1e8);
-    m.flow_index = f.number_or("flow_index", 1.0, 0.0, 5.0, true);
-    m.regularisation = f.number_or("regularisation", 100.0, 0.0, 1e8, true);
-    m.yield_stress = f.number_or("yield_stress", 0.0, 0.0, 1e7);
-    m.friction_angle_deg = f.number_or("friction_angle", 0.0, 0.0, 90.0, false, true);
-    m.cohesion = f.number_or("cohesion", 0.0, 0.0, 1e7);
-    if ((m.rheology == "bingham" || m.rheology == "hbp") && !f.has("yield_stress"))
-      throw SceneError(f.at("yield_stress"), "missing (required for rheology '" + m.rheology + "', in [0, 1e7] Pa)");
-    if (m.rheology == "friction-hbp" && !f.has("friction_angle"))
-      throw SceneError(f.at("friction_angle"), "missing (required for friction-hbp, in [0, 90) degrees)");
-    try {
-      (void)make_rheology(m);
-    } catch (const std::invalid_argument& e) {
-      throw SceneError(path, e.what());
-    }
+    MaterialParams m = parse_material(mats[k], "materials[" + std::to_string(k) + "]");
+    if (material_index.count(m.name))
+      throw SceneError("materials[" + std::to_string(k) + "].name", "duplicate material name '" + m.name + "'");
     material_index[m.name] = static_cast<uint16_t>(setup.materials.size());
     setup.materials.push_back(m);
   }
@@ -750,7 +761,7 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
     // it rests. Measured: a friction column blew up within 5 ms, a Bingham channel reached Mach 1.3, a plain
     // HBP column Mach 0.43 against 0.05 (docs/design.md, "Time stepping and guards").
     for (const auto& m : setup.materials)
-      if (m.rheology != "newtonian")
+      if (!rheology_model(m.rheology).traits.verlet_stable)
         throw SceneError(num.at("integrator"),
                          "verlet cannot carry material '" + m.name + "' (" + m.rheology +
                              "): its effective viscosity reaches the cap where it rests, and Verlet's leapfrog is "
@@ -758,13 +769,12 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
   }
 
   // Fluid particles, with a hydrostatic initial density (less start-up shock than rho0 everywhere).
-  const real gam = cfg.eos_gamma;
   for (const auto& pf : pending) {
     const real rho0 = setup.materials[pf.material].density;
-    const real B = cfg.speed_of_sound * cfg.speed_of_sound * rho0 / gam;
+    const TaitEOS eos(cfg.speed_of_sound, rho0, cfg.eos_gamma);
     for (size_t q = 0; q < pf.lattice.points.size(); ++q) {
       const real p = rho0 * g_mag * pf.lattice.depth[q];
-      const real rho = rho0 * std::pow(1.0 + p / B, 1.0 / gam);
+      const real rho = eos.density(p);
       setup.fluid.add(pf.lattice.points[q], rho, rho0 * std::pow(dp, D), pf.material, 0);
     }
   }

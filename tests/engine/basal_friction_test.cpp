@@ -116,8 +116,8 @@ double lone_particle_slide(double phi, double start_height_dp) {
   m.name = "grain";
   m.rheology = "friction-hbp";
   m.density = 2000;
-  m.viscosity = 1e-3;
-  m.friction_angle_deg = phi;
+  m.set("viscosity", 1e-3);
+  m.set("friction_angle", phi);
   s.materials.push_back(m);
   for (int k = -30; k <= 80; ++k)
     for (int l = 0; l < 3; ++l) s.boundary.add(Vec<2>(k * dp, -l * dp), 2000.0, 2000.0 * dp * dp, 0, 1);

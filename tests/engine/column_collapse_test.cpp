@@ -214,7 +214,7 @@ TEST(ColumnCollapseValidation, FrictionColumnComesToRestOnItsOwn) {
 TEST(ColumnCollapseValidation, PlainHbpComesToRestNoShorterThanItsStaticDeposit) {
   const Scene probe = load_scene(RUNOUT_SOURCE_DIR "/scenarios/validation/column_collapse_hbp_2d.json");
   const auto& setup = std::get<SceneSetup<2>>(probe.setup);
-  const double rho = setup.materials.at(0).density, tau_y = setup.materials.at(0).yield_stress;
+  const double rho = setup.materials.at(0).density, tau_y = setup.materials.at(0).value("yield_stress");
   const double g = -setup.config.gravity[1];
   const double x_static = std::pow(3 * kColumnArea / (2 * std::sqrt(2 * tau_y / (rho * g))), 2.0 / 3.0);
   const Deposit hb = run("column_collapse_hbp_2d.json", "column_collapse_hbp_2d");

@@ -34,21 +34,21 @@ MaterialParams material(const std::string& kind) {
   m.name = kind;
   m.rheology = kind == "water" ? "newtonian" : kind;
   if (kind == "water") {
-    m.viscosity = 0;
+    m.set("viscosity", 0);
   } else if (kind == "newtonian") {
     m.density = 1200;
-    m.viscosity = 0.5;
+    m.set("viscosity", 0.5);
   } else if (kind == "bingham") {
     m.density = 1500;
-    m.viscosity = 0.2;
-    m.yield_stress = 20;
+    m.set("viscosity", 0.2);
+    m.set("yield_stress", 20);
   } else {  // friction-hbp: cohesion gives it a finite tensile strength, so the pressure floor is exercised
     m.density = 2000;
-    m.viscosity = 1.0;
-    m.flow_index = 0.8;
-    m.regularisation = 100;
-    m.friction_angle_deg = 30;
-    m.cohesion = 50;
+    m.set("viscosity", 1.0);
+    m.set("flow_index", 0.8);
+    m.set("regularisation", 100);
+    m.set("friction_angle", 30);
+    m.set("cohesion", 50);
   }
   return m;
 }

@@ -52,7 +52,7 @@ Result simulate() {
   const MaterialParams mat = setup.materials[0];
   if (!(mat.rheology == "bingham" || mat.rheology == "hbp")) return res;
   const real dp = scene.dp;
-  const real rho = mat.density, mu = mat.viscosity, tau_y = mat.yield_stress;
+  const real rho = mat.density, mu = mat.value("viscosity"), tau_y = mat.value("yield_stress");
   const real gx = setup.config.gravity[0];
   if (!(gx > 0)) return res;
   if (setup.config.gravity[1] != 0.0) return res;

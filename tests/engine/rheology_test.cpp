@@ -20,11 +20,11 @@ MaterialParams friction(double phi, double c, double mu, double n, double m) {
   p.name = "debris";
   p.rheology = "friction-hbp";
   p.density = 2000;
-  p.viscosity = mu;
-  p.flow_index = n;
-  p.regularisation = m;
-  p.friction_angle_deg = phi;
-  p.cohesion = c;
+  p.set("viscosity", mu);
+  p.set("flow_index", n);
+  p.set("regularisation", m);
+  p.set("friction_angle", phi);
+  p.set("cohesion", c);
   return p;
 }
 }  // namespace
@@ -62,9 +62,9 @@ TEST(Rheology, PapanastasiouLimitAtZeroShearIsTauYTimesM) {
   MaterialParams p;
   p.name = "hbp";
   p.rheology = "hbp";
-  p.viscosity = 0.0;
-  p.yield_stress = 300.0;
-  p.regularisation = 100.0;
+  p.set("viscosity", 0.0);
+  p.set("yield_stress", 300.0);
+  p.set("regularisation", 100.0);
   const auto r = make_rheology(p);
   EXPECT_NEAR(mu_eff(*r, 1e-12, 0), 300.0 * 100.0, 1e-3);  // finite, = tau_y m
   EXPECT_TRUE(std::isfinite(mu_eff(*r, 1e-300, 0)));
@@ -74,11 +74,11 @@ TEST(Rheology, BinghamAndHbpAgreeForLargeM) {
   MaterialParams b;
   b.name = "b";
   b.rheology = "bingham";
-  b.viscosity = 5.0;
-  b.yield_stress = 100.0;
+  b.set("viscosity", 5.0);
+  b.set("yield_stress", 100.0);
   MaterialParams h = b;
   h.rheology = "hbp";
-  h.regularisation = 1e5;
+  h.set("regularisation", 1e5);
   const auto rb = make_rheology(b), rh = make_rheology(h);
   for (double g : {0.1, 1.0, 10.0}) EXPECT_NEAR(mu_eff(*rb, g, 0), mu_eff(*rh, g, 0), 1e-9 * mu_eff(*rb, g, 0));
 }
@@ -93,7 +93,7 @@ TEST(Rheology, BadParametersNameTheField) {
     }
   };
   auto p = friction(28, 0, 1, 1, 100);
-  p.flow_index = 0.0;
+  p.set("flow_index", 0.0);
   expect_field(p, "flow_index");
   p = friction(90, 0, 1, 1, 100);
   expect_field(p, "friction_angle");

@@ -283,7 +283,7 @@ const std::vector<Case> kRefused = {
     // Unknown names.
     edit("FluidRefersToUnknownMaterial", set(P("/fluid/0/material"), "mud"), "fluid[0].material", {"'mud'"}),
     edit("UnknownRheology", set(P("/materials/0/rheology"), "bingam"), "materials[0].rheology",
-         {"'bingam'", "accepted: bingham, friction-hbp, hbp, newtonian"}),
+         {"'bingam'", "accepted: bingham, friction-hbp, hbp, mu-i, newtonian"}),
     edit("UnknownKernel", set(P("/numerics/kernel"), "gaussian"), "numerics.kernel",
          {"'gaussian'", "accepted: wendland, cubic"}),
     edit("UnknownIntegrator", set(P("/numerics/integrator"), "euler"), "numerics.integrator",
@@ -307,7 +307,7 @@ const std::vector<Case> kPending = {
     edit("MissingDensityStatesRange", erase(P("/materials/0"), "density"), "materials[0].density",
          {"missing", "(0, 100000]"}),
     edit("MissingRheologyStatesNames", erase(P("/materials/0"), "rheology"), "materials[0].rheology",
-         {"missing", "bingham, friction-hbp, hbp, newtonian"}),
+         {"missing", "bingham, friction-hbp, hbp, mu-i, newtonian"}),
     edit("MissingMaterialsStatesRange", erase(P(""), "materials"), "materials", {"missing", "1 to 16"}),
     edit("MissingFluidStatesRange", erase(P(""), "fluid"), "fluid", {"missing", "non-empty array"}),
     edit("MissingBoundaryTypeStatesNames", erase(P("/boundaries/0"), "type"), "boundaries[0].type",

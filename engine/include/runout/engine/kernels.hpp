@@ -3,10 +3,10 @@
 // A kernel is a small value type with W(r) and grad_factor(r) such that grad_i W_ij = grad_factor(r) * r_ij
 // (and grad_factor_in_support(r, 1/r), the same inside the support given 1/r).
 // The solver is templated on the kernel type, so the hot loop has no virtual call; a new kernel is a new
-// struct here plus one entry in `KernelList` and `kernel_names()`.
+// struct here (with its `name` and `alias`) plus one line in RUNOUT_KERNELS.
+#include <stdexcept>
 #include <string>
 #include <string_view>
-#include <variant>
 #include <vector>
 
 #include "runout/engine/types.hpp"
@@ -15,7 +15,7 @@ namespace runout {
 
 template <int D>
 struct WendlandC2 {
-  static constexpr std::string_view name = "wendland";
+  static constexpr std::string_view name = "wendland", alias = "wendland-c2";
   real h, inv_h, alpha;
   explicit WendlandC2(real smoothing_length) : h(smoothing_length), inv_h(1.0 / smoothing_length) {
     alpha = (D == 2) ? 7.0 / (4.0 * kPi * h * h) : 21.0 / (16.0 * kPi * h * h * h);
@@ -44,7 +44,7 @@ struct WendlandC2 {
 
 template <int D>
 struct CubicSpline {
-  static constexpr std::string_view name = "cubic";
+  static constexpr std::string_view name = "cubic", alias = "cubic-spline";
   real h, inv_h, alpha;
   explicit CubicSpline(real smoothing_length) : h(smoothing_length), inv_h(1.0 / smoothing_length) {
     alpha = (D == 2) ? 10.0 / (7.0 * kPi * h * h) : 1.0 / (kPi * h * h * h);
@@ -80,9 +80,19 @@ struct CubicSpline {
   }
 };
 
-enum class KernelKind { wendland, cubic };
+// The kernel list: one line per kernel (its struct above). The enum, the dispatch and the names below are
+// generated from it, so a kernel cannot be parsed without being dispatched, or named differently.
+#define RUNOUT_KERNELS(X) \
+  X(wendland, WendlandC2) \
+  X(cubic, CubicSpline)
 
-// Parses a kernel name ("wendland", "cubic"); throws std::invalid_argument naming the accepted values.
+enum class KernelKind {
+#define RUNOUT_KERNEL_ENUM(id, type) id,
+  RUNOUT_KERNELS(RUNOUT_KERNEL_ENUM)
+#undef RUNOUT_KERNEL_ENUM
+};
+
+// Parses a kernel name or its alias; throws std::invalid_argument naming the accepted values.
 KernelKind kernel_from_name(std::string_view name);
 std::string_view kernel_name(KernelKind kind);
 std::vector<std::string> kernel_names();
@@ -91,10 +101,13 @@ std::vector<std::string> kernel_names();
 template <int D, class F>
 decltype(auto) with_kernel(KernelKind kind, real smoothing_length, F&& f) {
   switch (kind) {
-    case KernelKind::cubic: return f(CubicSpline<D>(smoothing_length));
-    case KernelKind::wendland: break;
+#define RUNOUT_KERNEL_CASE(id, type) \
+  case KernelKind::id:               \
+    return f(type<D>(smoothing_length));
+    RUNOUT_KERNELS(RUNOUT_KERNEL_CASE)
+#undef RUNOUT_KERNEL_CASE
   }
-  return f(WendlandC2<D>(smoothing_length));
+  throw std::invalid_argument("with_kernel: not a registered kernel");
 }
 
 }  // namespace runout

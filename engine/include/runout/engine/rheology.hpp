@@ -4,31 +4,35 @@
 // |gamma_dot| = g and tau_xy = mu_eff g).
 //
 // A rheology is evaluated once per particle per force evaluation over a whole material batch (one virtual
-// call per batch, none per pair). A new model is a new class deriving from Rheology plus one line in
-// `rheology_registry()` (rheology.cpp).
-#include <functional>
+// call per batch, none per pair). Each model is one file under engine/src/rheology/ that defines its class and
+// its RheologyModel (name, parameters, traits, factory), registered by one line in rheology/registry.hpp
+// (docs/design.md, "How to add a rheology").
 #include <limits>
-#include <map>
 #include <memory>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "runout/engine/parameters.hpp"
 #include "runout/engine/types.hpp"
 
 namespace runout {
 
-// Material parameters as a user writes them. Each rheology reads the ones it needs.
+// A material as a user writes it: a name, a rheology chosen by name, the bulk density, and the rheology's own
+// parameters by key (those absent take the model's default).
 struct MaterialParams {
   std::string name;
   std::string rheology = "newtonian";
-  real density = 1000.0;           // reference density rho0 [kg/m^3]
-  real viscosity = 1e-3;           // consistency mu [Pa s^n] (dynamic viscosity when n = 1)
-  real flow_index = 1.0;           // n [-]
-  real regularisation = 100.0;     // Papanastasiou m [s]
-  real yield_stress = 0.0;         // tau_y [Pa] (bingham, hbp)
-  real friction_angle_deg = 0.0;   // phi [deg] (friction-hbp)
-  real cohesion = 0.0;             // c [Pa] (friction-hbp)
+  real density = 1000.0;  // reference density rho0 [kg/m^3]
+  ParameterValues parameters;
+
+  MaterialParams& set(const std::string& key, real v) {
+    parameters[key] = v;
+    return *this;
+  }
+  // The value the model runs with: as given, else the model's default. Throws std::invalid_argument for a key
+  // the model does not declare.
+  real value(const std::string& key) const;
 };
 
 // Regularisation shared by every rheology: the shear rate is floored before use (the power-law part
@@ -48,7 +52,8 @@ class Rheology {
   // Coulomb coefficient of the material's contact with a wall (0: none). When positive, the wall's shear on a
   // particle is the rheology at zero confining pressure (viscous and cohesive part) plus Coulomb friction,
   // coefficient times the normal force the wall exerts on the particle: the basal normal stress, which a thin
-  // sheet's own SPH pressure does not carry (docs/design.md, "Basal friction").
+  // sheet's own SPH pressure does not carry (docs/design.md, "Basal friction"). When 0, the wall shears a
+  // particle with the particle's own mu_eff (a no-slip wall of the same material).
   virtual real wall_friction_coefficient() const { return 0.0; }
   // Yield stress at pressure p (0 for fluids without one); used by reports and tests.
   virtual real yield_stress(real pressure) const { return 0.0; }
@@ -57,70 +62,36 @@ class Rheology {
   // The largest isotropic tension the material carries [Pa]; the solver floors its pressure at minus this.
   // Liquids: unlimited (the equation of state's own). A Mohr-Coulomb material: c cot(phi), none when c = 0.
   virtual real tensile_strength() const { return std::numeric_limits<real>::infinity(); }
+  // The largest mu_eff the law gives at any shear rate and pressure (infinite when only the cap bounds it):
+  // the cost model's viscous time-step limit.
+  virtual real viscosity_bound() const { return std::numeric_limits<real>::infinity(); }
 };
 
-using RheologyFactory = std::function<std::unique_ptr<Rheology>(const MaterialParams&)>;
+// What the solver, the scene parser and the reports need to know of a model, without naming it.
+struct RheologyTraits {
+  bool yield_stress = false;   // rests below a yield stress: mu_eff reaches the cap where it rests
+  bool granular = false;       // strength from confining pressure (frictional): carries no tension
+  bool verlet_stable = false;  // Verlet's leapfrog carries it (tests/engine/verlet_test.cpp)
+};
 
-// name -> factory; the single place models are registered.
-const std::map<std::string, RheologyFactory>& rheology_registry();
+struct RheologyModel {
+  std::string name;
+  std::string doc;  // one line
+  std::vector<ParameterSpec> parameters;
+  RheologyTraits traits;
+  // Values resolved against `parameters` (every key present, each in range) and the material's bulk density.
+  // Throws std::invalid_argument "<key>: ..." for a combination the ranges cannot express.
+  std::unique_ptr<Rheology> (*create)(const ParameterValues&, real density);
+};
+
+// Every registered model, in registration order (rheology/registry.hpp).
+const std::vector<const RheologyModel*>& rheology_models();
+// Throws std::invalid_argument naming the accepted names.
+const RheologyModel& rheology_model(const std::string& name);
 std::vector<std::string> rheology_names();
-// Throws std::invalid_argument naming the field and the accepted range for bad parameters.
+// The bulk density every material has, whatever its rheology.
+const ParameterSpec& material_density_spec();
+// Throws std::invalid_argument "materials.<name>.<field>: ..." naming the field and the accepted range.
 std::unique_ptr<Rheology> make_rheology(const MaterialParams& params);
-
-// The models, exposed for unit tests.
-class Newtonian final : public Rheology {
- public:
-  explicit Newtonian(real viscosity) : mu_(viscosity) {}
-  void effective_viscosity(std::span<const real>, std::span<const real>, std::span<real> mu_eff) const override;
-  bool is_inviscid() const override { return mu_ == 0.0; }
-
- private:
-  real mu_;
-};
-
-class Bingham final : public Rheology {
- public:
-  Bingham(real viscosity, real yield_stress) : mu_(viscosity), tau_y_(yield_stress) {}
-  void effective_viscosity(std::span<const real> gamma_dot, std::span<const real>,
-                           std::span<real> mu_eff) const override;
-  real yield_stress(real) const override { return tau_y_; }
-
- private:
-  real mu_, tau_y_;
-};
-
-// Herschel-Bulkley-Papanastasiou (thesis eq. 4.4) with mu_eff = mu g^(n-1) + tau_y (1 - exp(-m g)) / g.
-class HerschelBulkleyPapanastasiou : public Rheology {
- public:
-  HerschelBulkleyPapanastasiou(real consistency, real flow_index, real regularisation, real yield_stress)
-      : mu_(consistency), n_(flow_index), m_(regularisation), tau_y_(yield_stress) {}
-  void effective_viscosity(std::span<const real> gamma_dot, std::span<const real> pressure,
-                           std::span<real> mu_eff) const override;
-  real yield_stress(real) const override { return tau_y_; }
-
- protected:
-  real mu_, n_, m_, tau_y_;
-};
-
-// friction-HBP (thesis eq. 4.9): HBP whose yield stress follows Mohr-Coulomb,
-// tau_y = max(P, 0) sin(phi) + c cos(phi).
-class FrictionHBP final : public Rheology {
- public:
-  FrictionHBP(real consistency, real flow_index, real regularisation, real friction_angle_deg, real cohesion);
-  // In simple shear the yield stress is P sin(phi): at a bed whose normal stress is P, the Coulomb
-  // coefficient is sin(phi) (the infinite-slope threshold tan(slope) = sin(phi) of tests/engine).
-  real wall_friction_coefficient() const override { return sin_phi_; }
-  real tensile_strength() const override {
-    return sin_phi_ > 0 ? cohesion_ * cos_phi_ / sin_phi_ : std::numeric_limits<real>::infinity();
-  }
-  void effective_viscosity(std::span<const real> gamma_dot, std::span<const real> pressure,
-                           std::span<real> mu_eff) const override;
-  real yield_stress(real pressure) const override {
-    return (pressure > 0 ? pressure : 0.0) * sin_phi_ + cohesion_ * cos_phi_;
-  }
-
- private:
-  real mu_, n_, m_, sin_phi_, cos_phi_, cohesion_;
-};
 
 }  // namespace runout

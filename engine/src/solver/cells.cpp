@@ -1,0 +1,167 @@
+#include "impl.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numeric>
+#include <sstream>
+#include <stdexcept>
+
+namespace runout {
+
+// Sorts fluid particles by cell, removes outflow, and builds the neighbour blocks of every fluid cell and
+// of the boundary cells next to fluid.
+template <int D>
+void Solver<D>::sort_and_build_cells() {
+  auto& I = *impl_;
+  const size_t n = fluid_.size();
+  I.sort_buf.resize(n);
+  size_t removed = 0;
+  real wrap_pe = 0;  // change of -m g.x from this step's periodic wraps: not a physical change of PE
+#pragma omp parallel for reduction(+ : removed, wrap_pe)
+  for (size_t i = 0; i < n; ++i) {
+    Vec<D> p = fluid_.position(i);
+    bool out = false;
+    for (int d = 0; d < D; ++d) {
+      if (config_.periodic[d]) {
+        const real L = I.period[d];
+        real x = p[d] - config_.domain_min[d];
+        if (x < 0 || x >= L) {
+          x -= std::floor(x / L) * L;
+          if (x >= L) x = 0;
+          wrap_pe -= fluid_.mass[i] * config_.gravity[d] * (config_.domain_min[d] + x - p[d]);
+          p[d] = config_.domain_min[d] + x;
+          fluid_.pos[d][i] = p[d];
+          if (config_.integrator == Integrator::verlet) pos_saved_[d][i] = p[d];
+        }
+      } else if ((p[d] < config_.domain_min[d] && config_.outflow[d][0]) ||
+                 (p[d] > config_.domain_max[d] && config_.outflow[d][1])) {
+        out = true;
+      }
+    }
+    if (!inlets_.empty() && !is_inlet_buffer(fluid_.tag[i])) out = out || in_inlet_buffer(p);
+    if (!outflow_marked_.empty() && outflow_marked_[i]) out = true;
+    I.sort_buf[i] = {out ? kRemovedKey : Impl::pack(I.coords(p)), static_cast<uint32_t>(i)};
+    removed += out ? 1 : 0;
+  }
+  potential_outflow_ -= wrap_pe;  // keeps PE(t) + potential_outflow_ continuous across a wrap
+  outflow_marked_.clear();
+  std::sort(I.sort_buf.begin(), I.sort_buf.end());
+  const size_t keep = n - removed;
+  if (removed > 0) {
+    for (size_t k = keep; k < n; ++k) {
+      const uint32_t i = I.sort_buf[k].second;
+      mass_.outflow[fluid_.material[i]] += fluid_.mass[i];
+      real gx = 0;
+      for (int d = 0; d < D; ++d) gx += config_.gravity[d] * fluid_.pos[d][i];
+      potential_outflow_ -= fluid_.mass[i] * gx;
+    }
+  }
+
+  // Apply the permutation (and truncation) to every per-particle array that carries state.
+  auto permute_real = [&](std::vector<real>& v) {
+    I.scratch_real.resize(keep);
+#pragma omp parallel for
+    for (size_t k = 0; k < keep; ++k) I.scratch_real[k] = v[I.sort_buf[k].second];
+    v.swap(I.scratch_real);
+  };
+  for (int d = 0; d < D; ++d) {
+    permute_real(fluid_.pos[d]);
+    permute_real(fluid_.vel[d]);
+    if (config_.integrator == Integrator::verlet) {
+      permute_real(pos_saved_[d]);
+      permute_real(vel_saved_[d]);
+    }
+  }
+  permute_real(fluid_.rho);
+  permute_real(fluid_.mass);
+  if (config_.integrator == Integrator::verlet) permute_real(rho_saved_);
+  {
+    I.scratch_u16.resize(keep);
+    for (size_t k = 0; k < keep; ++k) I.scratch_u16[k] = fluid_.material[I.sort_buf[k].second];
+    fluid_.material.swap(I.scratch_u16);
+    I.scratch_u32.resize(keep);
+    for (size_t k = 0; k < keep; ++k) I.scratch_u32[k] = fluid_.tag[I.sort_buf[k].second];
+    fluid_.tag.swap(I.scratch_u32);
+    I.scratch_u32.resize(keep);
+    for (size_t k = 0; k < keep; ++k) I.scratch_u32[k] = fluid_.id[I.sort_buf[k].second];
+    fluid_.id.swap(I.scratch_u32);
+  }
+
+  // Fluid cells.
+  I.fcell_key.clear();
+  I.fcell_begin.clear();
+  for (size_t k = 0; k < keep; ++k) {
+    const uint64_t key = I.sort_buf[k].first;
+    if (I.fcell_key.empty() || I.fcell_key.back() != key) {
+      I.fcell_key.push_back(key);
+      I.fcell_begin.push_back(static_cast<uint32_t>(k));
+    }
+  }
+  I.fcell_begin.push_back(static_cast<uint32_t>(keep));
+  const size_t ncells = I.fcell_key.size();
+  constexpr int kNb = Impl::kNb;
+  constexpr int kHalf = Impl::kHalf;
+  constexpr int kCentre = kNb / 2;  // the cell's own column
+  I.fnb_half.resize(ncells * kHalf);
+  I.fnb_bound.resize(ncells * kNb);
+  I.fnb_half_n.assign(ncells, 0);
+  I.fnb_bound_n.assign(ncells, 0);
+#pragma omp parallel
+  {
+    std::array<size_t, kNb> fhint{}, bhint{};
+#pragma omp for schedule(static)
+    for (size_t c = 0; c < ncells; ++c) {
+      const auto cc = Impl::unpack(I.fcell_key[c]);
+      int nf = 0, nbnd = 0;
+      typename Impl::Block blk;
+      // Column o has horizontal offsets (o % 5 - 2, o / 5 - 2): o > kCentre is the half after the own column.
+      for (int o = kCentre; o < kNb; ++o)
+        if (I.column(I.fcell_key, I.fcell_begin, cc, o, blk, fhint[o])) I.fnb_half[c * kHalf + nf++] = blk;
+      for (int o = 0; o < kNb; ++o)
+        if (I.column(I.bcell_key, I.bcell_begin, cc, o, blk, bhint[o])) I.fnb_bound[c * kNb + nbnd++] = blk;
+      I.fnb_half_n[c] = static_cast<uint8_t>(nf);
+      I.fnb_bound_n[c] = static_cast<uint8_t>(nbnd);
+    }
+  }
+
+  // Boundary cells next to fluid: the only boundary particles that do work this step. Boundary blocks are
+  // runs of whole boundary cells, so mark the cells each run covers.
+  ++I.stamp;
+  I.active_bcells.clear();
+  for (size_t c = 0; c < ncells; ++c) {
+    for (int k = 0; k < I.fnb_bound_n[c]; ++k) {
+      const auto& blk = I.fnb_bound[c * kNb + k];
+      for (uint32_t cb = blk.cell0; cb < blk.cell1; ++cb) {
+        if (I.bcell_stamp[cb] != I.stamp) {
+          I.bcell_stamp[cb] = I.stamp;
+          I.active_bcells.push_back(static_cast<uint32_t>(cb));
+        }
+      }
+    }
+  }
+  I.bslot.resize(boundary_.size());
+  uint32_t slot = 0;
+  for (uint32_t cb : I.active_bcells)
+    for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b) I.bslot[b] = slot++;
+  I.active_boundary_count = slot;
+
+  // Work arrays follow the (possibly smaller) particle count.
+  for (int d = 0; d < D; ++d) acc_[d].resize(keep);
+  drho_.resize(keep);
+  pressure_.resize(keep);
+  mu_eff_.resize(keep);
+  shear_rate_.resize(keep);
+  yield_pressure_.resize(keep);
+  for (int d = 0; d < D; ++d) contact_normal_[d].assign(keep, 0);
+  mu_wall_.resize(keep);
+  zero_pressure_.resize(keep);
+}
+
+template void Solver<2>::sort_and_build_cells();
+template void Solver<3>::sort_and_build_cells();
+
+}  // namespace runout

@@ -1,0 +1,167 @@
+#pragma once
+// The solver's private state: the cell grid, neighbour blocks, pair lists and per-thread accumulators
+// (Solver<D>::Impl), shared by the solver's translation units (engine/src/solver/*.cpp).
+#include <omp.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "runout/engine/solver.hpp"
+
+namespace runout {
+namespace solver_detail {
+
+constexpr int kCellBits = 21;
+constexpr int64_t kCellBias = int64_t{1} << (kCellBits - 1);
+constexpr uint64_t kRemovedKey = std::numeric_limits<uint64_t>::max();
+
+inline std::string fmt_time(real t) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "t=%.6g s", t);
+  return buf;
+}
+
+}  // namespace solver_detail
+using namespace solver_detail;
+
+// Cell grid and neighbour blocks. Cells have size h (half the kernel support) and are searched two cells
+// each way. Keys pack the vertical axis in the lowest bits, so the five cells of one vertical column are
+// contiguous in sorted order: each neighbour "block" is one such column run (5 blocks per cell in 2D, 25 in
+// 3D) plus the periodic image shift to apply to it.
+template <int D>
+struct Solver<D>::Impl {
+  struct Block {
+    uint32_t begin, end, shift;
+    uint32_t cell0, cell1;  // the cells (indices into the key array) the run covers
+  };
+  static constexpr int kReach = 2;
+  static constexpr int kSpan = 2 * kReach + 1;
+  static constexpr int kNb = D == 2 ? kSpan : kSpan * kSpan;
+
+  Vec<D> origin, cell_size, inv_cell, period;
+  std::array<int64_t, D> periodic_cells{};  // 0 if the axis is not periodic
+  std::vector<Vec<D>> shifts;                // 3^(D-1) entries, index sum (s_d + 1) 3^d over horizontal axes
+
+  std::vector<uint64_t> fcell_key;
+  std::vector<uint32_t> fcell_begin;  // size cells + 1
+  std::vector<Block> fnb_bound;  // boundary columns, stride kNb per fluid cell
+  std::vector<uint8_t> fnb_bound_n;
+
+  std::vector<uint64_t> bcell_key;
+  std::vector<uint32_t> bcell_begin;
+  std::vector<uint32_t> bcell_stamp;
+  uint32_t stamp = 0;
+  std::vector<uint32_t> active_bcells;
+  // Active boundary particles (those in active cells) numbered 0.. in active-cell order: bslot[b] is valid
+  // for them only. Per-thread boundary accumulators are this long, not the whole boundary's length.
+  std::vector<uint32_t> bslot;
+  size_t active_boundary_count = 0;
+
+  // Half stencil of fluid columns (the own column first, then those after it: each pair once), stride kHalf.
+  static constexpr int kHalf = kNb / 2 + 1;
+  std::vector<Block> fnb_half;
+  std::vector<uint8_t> fnb_half_n;
+
+  // Pair lists (see evaluate), per thread, and per fluid particle where its list is.
+  std::vector<std::vector<uint32_t>> list_buf;
+  std::vector<uint32_t> list_off, list_nf, list_nb;
+  std::vector<uint16_t> list_thread;
+  // Per-thread accumulators of the pair passes.
+  std::vector<std::vector<real>> acc_f, acc_b;
+  // Per particle, once per evaluation rather than per pair: volume m / rho and p / rho^2 (fluid; boundary:
+  // the active ones).
+  std::vector<real> vol, pt, inv_rho, bvol, bpt;
+  // What a pair loop reads of its neighbour j, packed in one 64-byte record per fluid particle (one cache
+  // line instead of one per array): velocity, rho, m / rho, p / rho^2, p (pass 1) or mu_eff (pass 2), 1 / rho.
+  static constexpr int kPackStride = 8, kPackRho = D, kPackVol = D + 1, kPackPt = D + 2, kPackPm = D + 3,
+                       kPackInvRho = D + 4;
+  static_assert(kPackInvRho < kPackStride);
+  std::vector<real> neighbour_pack;
+
+  std::vector<std::pair<uint64_t, uint32_t>> sort_buf;
+  std::vector<real> scratch_real;
+  std::vector<uint32_t> scratch_u32;
+  std::vector<uint16_t> scratch_u16;
+
+  std::array<int64_t, D> coords(const Vec<D>& p) const {
+    std::array<int64_t, D> c;
+    for (int d = 0; d < D; ++d) {
+      int64_t k = static_cast<int64_t>(std::floor((p[d] - origin[d]) * inv_cell[d]));
+      if (periodic_cells[d] > 0) {
+        k %= periodic_cells[d];
+        if (k < 0) k += periodic_cells[d];
+      }
+      c[d] = std::clamp<int64_t>(k, -kCellBias + kReach, kCellBias - 1 - kReach);
+    }
+    return c;
+  }
+  static uint64_t pack(const std::array<int64_t, D>& c) {
+    uint64_t key = 0;
+    for (int d = 0; d < D; ++d) key |= static_cast<uint64_t>(c[d] + kCellBias) << (kCellBits * (D - 1 - d));
+    return key;
+  }
+  static std::array<int64_t, D> unpack(uint64_t key) {
+    std::array<int64_t, D> c;
+    const uint64_t mask = (uint64_t{1} << kCellBits) - 1;
+    for (int d = 0; d < D; ++d)
+      c[d] = static_cast<int64_t>((key >> (kCellBits * (D - 1 - d))) & mask) - kCellBias;
+    return c;
+  }
+  // Column block o (0..kNb-1) around cell c within the cells `keys` (sorted, with particle offsets `begin`):
+  // false when the column holds no particles. `hint` is where the same column of the previous cell started:
+  // cells are visited in key order, so the search gallops forward from there (a binary search otherwise).
+  bool column(const std::vector<uint64_t>& keys, const std::vector<uint32_t>& begin, const std::array<int64_t, D>& c,
+              int o, Block& out, size_t& hint) const {
+    std::array<int64_t, D> lo = c, hi = c;
+    uint32_t shift = 0;
+    int rem = o, pw = 1;
+    for (int d = 0; d < D - 1; ++d) {
+      int64_t n = c[d] + rem % kSpan - kReach;
+      rem /= kSpan;
+      int s = 0;
+      if (periodic_cells[d] > 0) {
+        if (n >= periodic_cells[d]) {
+          n -= periodic_cells[d];
+          s = 1;
+        } else if (n < 0) {
+          n += periodic_cells[d];
+          s = -1;
+        }
+      }
+      lo[d] = hi[d] = n;
+      shift += static_cast<uint32_t>((s + 1) * pw);
+      pw *= 3;
+    }
+    lo[D - 1] = c[D - 1] - kReach;
+    hi[D - 1] = c[D - 1] + kReach;
+    const uint64_t key_lo = pack(lo), key_hi = pack(hi);
+    const size_t nk = keys.size();
+    size_t a = 0, b = nk;  // keys[a - 1] < key_lo <= keys[b] (as far as known)
+    if (hint < nk && keys[hint] < key_lo) {
+      size_t step = 1;
+      a = hint + 1;
+      while (a + step - 1 < nk && keys[a + step - 1] < key_lo) {
+        a += step;
+        step *= 2;
+      }
+      b = std::min(nk, a + step - 1);
+    } else if (hint < nk) {
+      b = hint;
+    }
+    const size_t k0 = std::lower_bound(keys.begin() + a, keys.begin() + b, key_lo) - keys.begin();
+    hint = k0;
+    size_t k1 = k0;
+    while (k1 < nk && keys[k1] <= key_hi) ++k1;  // at most 2 kReach + 1 cells
+    if (k0 >= k1) return false;
+    out = {begin[k0], begin[k1], shift, static_cast<uint32_t>(k0), static_cast<uint32_t>(k1)};
+    return true;
+  }
+};
+
+}  // namespace runout

@@ -1,0 +1,143 @@
+#include "impl.hpp"
+#include "runout/engine/eos.hpp"
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numeric>
+#include <sstream>
+#include <stdexcept>
+
+namespace runout {
+
+template <int D>
+const StepStats& Solver<D>::step() {
+  auto& I = *impl_;
+  sort_and_build_cells();
+  if (!inlets_.empty()) impose_inlet_state();
+  evaluate(true);
+  const real dt = stats_.dt;
+  const size_t n = fluid_.size();
+  const real rho0_b = config_.boundary_density;
+  // Density floor (config_.density_floor): the density at which the equation of state reaches the
+  // material's tension floor (rho0 for a cohesionless material, whose pressure is floored at 0; none for a
+  // liquid). Below it the pressure no longer changes, so nothing holds the continuity density: it drifts far
+  // under rho0 while particles clump (0.3-0.5 dp apart), and the inflated volumes m/rho can make density
+  // diffusion and the viscous term unstable (flume C6 at dp 0.04 m blew up at t = 3.48 s without it). The
+  // walls' density has the same floor at their reference density, always.
+  std::vector<real> rho_floor(materials_.size(), 0.0);
+  if (config_.density_floor) {
+    for (size_t k = 0; k < materials_.size(); ++k) {
+      const TaitEOS eos(config_.speed_of_sound, materials_[k].density, config_.eos_gamma);
+      const real p_min = -rheologies_[k]->tensile_strength();
+      if (p_min > -eos.B) rho_floor[k] = (1.0 - config_.max_dilatancy) * eos.density(p_min);
+    }
+  }
+  const real* rho_floor_of = rho_floor.data();
+  auto for_active_boundary = [&](auto&& f) {
+#pragma omp parallel for schedule(static)
+    for (size_t a = 0; a < I.active_bcells.size(); ++a) {
+      const uint32_t cb = I.active_bcells[a];
+      for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b) f(b);
+    }
+  };
+
+  // A particle in contact with a wall loses the velocity component that takes it further in (an inelastic
+  // contact: it never adds energy). The wall pressure holds a resting sheet but does not grow as a particle
+  // closes in: without this, lone particles went 1 dp under the Jacksboro terrain. The normal impulse taken
+  // is part of the wall's normal force, so a friction material's Coulomb friction acts on it too: the
+  // tangential speed drops by up to mu_wall |v_n| (never reversing). Without it a lone particle whose weight
+  // the contact partly carried slid 7 % past the Coulomb distance, and the column collapse's one-particle
+  // front sheet 0.09 m farther (docs/design.md).
+  std::vector<real> contact_friction(materials_.size());
+  for (size_t k = 0; k < materials_.size(); ++k) contact_friction[k] = rheologies_[k]->wall_friction_coefficient();
+  const real* contact_friction_of = contact_friction.data();
+  auto stop_wall_approach = [&](size_t i) {
+    real vn = 0;
+    for (int d = 0; d < D; ++d) vn += fluid_.vel[d][i] * contact_normal_[d][i];
+    if (vn >= 0) return;
+    real vt2 = 0;
+    for (int d = 0; d < D; ++d) {
+      fluid_.vel[d][i] -= vn * contact_normal_[d][i];
+      vt2 += fluid_.vel[d][i] * fluid_.vel[d][i];
+    }
+    const real mu = contact_friction_of[fluid_.material[i]];
+    if (mu > 0 && vt2 > 0) {
+      const real keep = std::max(real(0), 1 + mu * vn / std::sqrt(vt2));
+      for (int d = 0; d < D; ++d) fluid_.vel[d][i] *= keep;
+    }
+  };
+
+  if (config_.integrator == Integrator::symplectic) {
+    // Predictor (thesis eq. 2.25).
+    const real hdt = 0.5 * dt;
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; ++i) {
+      for (int d = 0; d < D; ++d) {
+        pos_saved_[d][i] = fluid_.pos[d][i];
+        vel_saved_[d][i] = fluid_.vel[d][i];
+        fluid_.pos[d][i] += hdt * fluid_.vel[d][i];
+        fluid_.vel[d][i] += hdt * acc_[d][i];
+      }
+      rho_saved_[i] = fluid_.rho[i];
+      fluid_.rho[i] = std::max(rho_floor_of[fluid_.material[i]], fluid_.rho[i] + hdt * drho_[i]);
+    }
+    for_active_boundary([&](uint32_t b) {
+      boundary_rho_saved_[b] = boundary_.rho[b];
+      boundary_.rho[b] = std::max(rho0_b, boundary_.rho[b] + hdt * boundary_drho_[b]);
+    });
+    evaluate(false);
+    // Corrector (thesis eq. 2.26).
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; ++i) {
+      for (int d = 0; d < D; ++d) {
+        fluid_.vel[d][i] = vel_saved_[d][i] + dt * acc_[d][i];
+      }
+      stop_wall_approach(i);
+      for (int d = 0; d < D; ++d) fluid_.pos[d][i] = pos_saved_[d][i] + dt * 0.5 * (fluid_.vel[d][i] + vel_saved_[d][i]);
+      const real eps = -drho_[i] / fluid_.rho[i] * dt;
+      fluid_.rho[i] = std::max(rho_floor_of[fluid_.material[i]], rho_saved_[i] * (2.0 - eps) / (2.0 + eps));
+    }
+    for_active_boundary([&](uint32_t b) {
+      const real eps = -boundary_drho_[b] / boundary_.rho[b] * dt;
+      boundary_.rho[b] = std::max(rho0_b, boundary_rho_saved_[b] * (2.0 - eps) / (2.0 + eps));
+    });
+  } else {
+    // Verlet (thesis eq. 2.23-2.24): the saved arrays hold the values at n-1.
+    const bool euler = config_.verlet_reset_steps > 0 && (steps_ + 1) % config_.verlet_reset_steps == 0;
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; ++i) {
+      for (int d = 0; d < D; ++d) {
+        const real v = fluid_.vel[d][i];
+        const real v_new = euler ? v + dt * acc_[d][i] : vel_saved_[d][i] + 2.0 * dt * acc_[d][i];
+        fluid_.pos[d][i] += dt * v + 0.5 * dt * dt * acc_[d][i];
+        vel_saved_[d][i] = v;
+        fluid_.vel[d][i] = v_new;
+      }
+      stop_wall_approach(i);
+      const real r = fluid_.rho[i];
+      fluid_.rho[i] = std::max(rho_floor_of[fluid_.material[i]], euler ? r + dt * drho_[i] : rho_saved_[i] + 2.0 * dt * drho_[i]);
+      rho_saved_[i] = r;
+    }
+    for_active_boundary([&](uint32_t b) {
+      const real r = boundary_.rho[b];
+      boundary_.rho[b] =
+          std::max(rho0_b, euler ? r + dt * boundary_drho_[b] : boundary_rho_saved_[b] + 2.0 * dt * boundary_drho_[b]);
+      boundary_rho_saved_[b] = r;
+    });
+  }
+
+  time_ += dt;
+  ++steps_;
+  min_dt_seen_ = std::min(min_dt_seen_, dt);
+  if (!inlets_.empty()) advance_inlets();
+  check_state();
+  return stats_;
+}
+
+template const StepStats& Solver<2>::step();
+template const StepStats& Solver<3>::step();
+
+}  // namespace runout

@@ -1,0 +1,208 @@
+#include "impl.hpp"
+#include "runout/engine/eos.hpp"
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numeric>
+#include <sstream>
+#include <stdexcept>
+
+namespace runout {
+
+template <int D>
+void ParticleArrays<D>::add(const Vec<D>& p, real density, real m, uint16_t mat, uint32_t tg) {
+  for (int d = 0; d < D; ++d) {
+    pos[d].push_back(p[d]);
+    vel[d].push_back(0.0);
+  }
+  rho.push_back(density);
+  mass.push_back(m);
+  material.push_back(mat);
+  tag.push_back(tg);
+  id.push_back(static_cast<uint32_t>(id.size()));
+}
+
+long double MassBalance::total_initial() const { return std::accumulate(initial.begin(), initial.end(), 0.0L); }
+long double MassBalance::total_current() const { return std::accumulate(current.begin(), current.end(), 0.0L); }
+long double MassBalance::total_outflow() const { return std::accumulate(outflow.begin(), outflow.end(), 0.0L); }
+long double MassBalance::total_inflow() const { return std::accumulate(inflow.begin(), inflow.end(), 0.0L); }
+
+template <int D>
+real InletSpec<D>::speed_at(real t) const {
+  if (speed.empty()) return 0;
+  if (t <= speed.front()[0]) return speed.front()[1];
+  for (size_t k = 1; k < speed.size(); ++k)
+    if (t < speed[k][0]) {
+      const auto& a = speed[k - 1];
+      const auto& b = speed[k];
+      return a[1] + (b[1] - a[1]) * (t - a[0]) / (b[0] - a[0]);
+    }
+  return speed.back()[1];
+}
+
+template <int D>
+Solver<D>::Solver(SceneSetup<D> setup)
+    : impl_(std::make_unique<Impl>()),
+      config_(setup.config),
+      materials_(std::move(setup.materials)),
+      fluid_(std::move(setup.fluid)),
+      boundary_(std::move(setup.boundary)),
+      leak_regions_(std::move(setup.leak_regions)),
+      inlets_(std::move(setup.inlets)) {
+  auto& I = *impl_;
+  for (const auto& m : materials_) rheologies_.push_back(make_rheology(m));
+  for (uint32_t id : fluid_.id) next_id_ = std::max(next_id_, id + 1);
+  create_inlet_buffers();
+
+  const real h = config_.smoothing_length;
+  const real support = 2.0 * h;
+  // Auto viscosity cap: the mu_eff at which the viscous limit 0.125 h^2 rho / mu equals cfl h / c0.
+  if (config_.max_viscosity > 0) {
+    max_viscosity_ = config_.max_viscosity;
+  } else {
+    real rho_min = 1e300;
+    for (const auto& m : materials_) rho_min = std::min(rho_min, m.density);
+    max_viscosity_ = config_.viscosity_cap_factor * 0.125 * h * rho_min * config_.speed_of_sound / config_.cfl;
+  }
+
+  // Grid: cells of size h (half the support); a periodic axis gets a whole number (>= 5) of cells.
+  for (int d = 0; d < D; ++d) {
+    I.cell_size[d] = 0.5 * support;
+    I.origin[d] = 0.0;
+    I.period[d] = 0.0;
+    if (config_.periodic[d]) {
+      if (d == D - 1) throw std::invalid_argument("domain.periodic: the vertical axis cannot be periodic");
+      const real L = config_.domain_max[d] - config_.domain_min[d];
+      const int64_t n = static_cast<int64_t>(std::floor(L / (0.5 * support)));
+      if (n < 2 * Impl::kReach + 1)
+        throw std::invalid_argument("domain.periodic: a periodic axis must be at least 5h long");
+      I.periodic_cells[d] = n;
+      I.cell_size[d] = L / static_cast<real>(n);
+      I.origin[d] = config_.domain_min[d];
+      I.period[d] = L;
+    }
+    I.inv_cell[d] = 1.0 / I.cell_size[d];
+  }
+  // Non-periodic origin: the lower corner of all particles, so keys stay small.
+  for (int d = 0; d < D; ++d) {
+    if (config_.periodic[d]) continue;
+    real lo = 1e300;
+    for (real x : fluid_.pos[d]) lo = std::min(lo, x);
+    for (real x : boundary_.pos[d]) lo = std::min(lo, x);
+    I.origin[d] = (lo < 1e299 ? lo : 0.0) - support;
+  }
+  {
+    int nshift = 1;
+    for (int d = 0; d < D - 1; ++d) nshift *= 3;
+    I.shifts.resize(nshift);
+    for (int o = 0; o < nshift; ++o) {
+      int rem = o;
+      Vec<D> sv = Vec<D>::Zero();
+      for (int d = 0; d < D - 1; ++d) {
+        sv[d] = (rem % 3 - 1) * I.period[d];
+        rem /= 3;
+      }
+      I.shifts[o] = sv;
+    }
+  }
+
+  // Boundary particles never move: sort them by cell once.
+  {
+    const size_t nb = boundary_.size();
+    std::vector<std::pair<uint64_t, uint32_t>> order(nb);
+    for (size_t i = 0; i < nb; ++i) order[i] = {Impl::pack(I.coords(boundary_.position(i))), uint32_t(i)};
+    std::sort(order.begin(), order.end());
+    ParticleArrays<D> sorted;
+    for (auto& [key, i] : order) {
+      sorted.add(boundary_.position(i), boundary_.rho[i], boundary_.mass[i], boundary_.material[i],
+                 boundary_.tag[i]);
+      sorted.id.back() = boundary_.id[i];
+      if (I.bcell_key.empty() || I.bcell_key.back() != key) {
+        I.bcell_key.push_back(key);
+        I.bcell_begin.push_back(static_cast<uint32_t>(sorted.size() - 1));
+      }
+    }
+    I.bcell_begin.push_back(static_cast<uint32_t>(nb));
+    boundary_ = std::move(sorted);
+    I.bcell_stamp.assign(I.bcell_key.size(), 0);
+  }
+  boundary_drho_.assign(boundary_.size(), 0.0);
+  boundary_pressure_.assign(boundary_.size(), 0.0);
+  boundary_rho_saved_ = boundary_.rho;
+
+  mass_.initial.assign(materials_.size(), 0.0L);
+  mass_.outflow.assign(materials_.size(), 0.0L);
+  mass_.inflow.assign(materials_.size(), 0.0L);
+  for (size_t i = 0; i < fluid_.size(); ++i)
+    if (!is_inlet_buffer(fluid_.tag[i])) mass_.initial[fluid_.material[i]] += fluid_.mass[i];
+  potential_initial_ = potential_energy();
+  // Verlet keeps the previous step's velocity and density in the saved arrays.
+  for (int d = 0; d < D; ++d) {
+    pos_saved_[d] = fluid_.pos[d];
+    vel_saved_[d] = fluid_.vel[d];
+  }
+  rho_saved_ = fluid_.rho;
+}
+
+template <int D>
+Solver<D>::~Solver() = default;
+
+template <int D>
+real Solver<D>::potential_energy() const {
+  long double pe = 0;
+  for (size_t i = 0; i < fluid_.size(); ++i) {
+    if (is_inlet_buffer(fluid_.tag[i])) continue;
+    real gx = 0;
+    for (int d = 0; d < D; ++d) gx += config_.gravity[d] * fluid_.pos[d][i];
+    pe -= fluid_.mass[i] * gx;
+  }
+  return static_cast<real>(pe);
+}
+
+template <int D>
+MassBalance Solver<D>::mass_balance() const {
+  MassBalance m = mass_;
+  m.current.assign(materials_.size(), 0.0L);
+  for (size_t i = 0; i < fluid_.size(); ++i)
+    if (!is_inlet_buffer(fluid_.tag[i])) m.current[fluid_.material[i]] += fluid_.mass[i];
+  return m;
+}
+
+template <int D>
+EnergySummary Solver<D>::energy() const {
+  EnergySummary e;
+  long double ke = 0;
+  for (size_t i = 0; i < fluid_.size(); ++i) {
+    if (is_inlet_buffer(fluid_.tag[i])) continue;
+    real v2 = 0;
+    for (int d = 0; d < D; ++d) v2 += fluid_.vel[d][i] * fluid_.vel[d][i];
+    ke += 0.5 * fluid_.mass[i] * v2;
+  }
+  e.kinetic = static_cast<real>(ke);
+  e.potential_released = potential_initial_ - (potential_energy() + potential_outflow_);
+  e.inflow_kinetic = kinetic_inflow_;
+  return e;
+}
+
+template <int D>
+void Solver<D>::remove_as_outflow(const std::vector<size_t>& indices) {
+  if (indices.empty()) return;
+  outflow_marked_.resize(fluid_.size(), 0);
+  for (size_t i : indices) {
+    if (i >= fluid_.size()) throw std::out_of_range("remove_as_outflow: fluid index out of range");
+    outflow_marked_[i] = 1;
+  }
+  sort_and_build_cells();  // removes them now (the next step's sort would too, but a run may end first)
+}
+
+template struct InletSpec<2>;
+template struct InletSpec<3>;
+template struct ParticleArrays<2>;
+template struct ParticleArrays<3>;
+template class Solver<2>;
+template class Solver<3>;
+
+}  // namespace runout
