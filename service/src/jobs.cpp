@@ -4,6 +4,7 @@
 #include <sqlite3.h>
 
 #include <mutex>
+#include <vector>
 #include <stdexcept>
 
 namespace runout::service {
@@ -179,34 +180,96 @@ std::optional<Job> get_job(const Conn& c, int64_t id, bool full = true) {
 
 int64_t insert_job(Conn& c, const JobSpec& spec, std::optional<int64_t> sweep_id, const std::optional<std::string>& key) {
   Stmt ins(c, std::string("INSERT INTO jobs(status, scene_name, scene_json, scene_id, fidelity, dp, sweep_id, sweep, "
-                          "variant, idempotency_key, particles, duration, created_at, updated_at) "
-                          "VALUES ('queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ") +
+                          "variant, idempotency_key, particles, duration, cpu_seconds, submitted_by, created_at, "
+                          "updated_at) VALUES ('queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ") +
                   kNow + ", " + kNow + ")");
   ins.bind(1, spec.scene_name).bind(2, spec.scene_json).bind(3, spec.scene_id).bind(4, spec.fidelity).bind(5, spec.dp);
   ins.bind(6, sweep_id).bind(7, spec.sweep).bind(8, spec.variant).bind(9, key).bind(10, spec.particles);
-  ins.bind(11, spec.duration);
+  ins.bind(11, spec.duration).bind(12, spec.cpu_seconds).bind(13, spec.submitted_by);
   ins.step();
   return sqlite3_last_insert_rowid(c.db);
+}
+
+// A running job counts by the fraction it has left.
+const char* kRemainingCpu =
+    "cpu_seconds * CASE WHEN status = 'running' AND duration > 0 THEN MAX(0.0, 1.0 - sim_time / duration) ELSE 1.0 END";
+
+Backlog read_backlog(const Conn& c, const std::string& submitter) {
+  Stmt s(c, std::string("SELECT COALESCE(SUM(") + kRemainingCpu + "), 0), COALESCE(SUM(CASE WHEN submitted_by = ?1 THEN " +
+                kRemainingCpu + " ELSE 0 END), 0), COUNT(*) FROM jobs WHERE status IN ('queued', 'running')");
+  s.bind(1, submitter);
+  s.step();
+  return {s.real(0), s.real(1), s.int64(2)};
+}
+
+// The service's own schema versions (service_schema_migrations), beside the run store's schema_migrations:
+// entry i takes the service's tables from version i to i + 1, each in its own BEGIN IMMEDIATE with its row.
+const std::vector<const char*> kServiceMigrations = {
+    // 1: the tables themselves, made by the run store's migration 2 in files of today (nothing to do here).
+    "SELECT 1",
+    // 2: the work budget: each job's predicted CPU-seconds and its submitter (a token's label).
+    "ALTER TABLE jobs ADD COLUMN cpu_seconds REAL NOT NULL DEFAULT 0;"
+    "ALTER TABLE jobs ADD COLUMN submitted_by TEXT NOT NULL DEFAULT '';",
+};
+
+int service_version(Conn& c) {
+  Stmt s(c, "SELECT COALESCE(MAX(version), 0) FROM service_schema_migrations");
+  s.step();
+  return static_cast<int>(s.int64(0));
+}
+
+void migrate_service(Conn& c) {
+  c.exec("CREATE TABLE IF NOT EXISTS service_schema_migrations (version INTEGER PRIMARY KEY, applied_at TEXT NOT NULL)");
+  const int known = static_cast<int>(kServiceMigrations.size());
+  if (service_version(c) > known)
+    throw std::runtime_error("job queue " + c.path.string() + ": the service's schema version " +
+                             std::to_string(service_version(c)) + " is newer than this program knows (" +
+                             std::to_string(known) + ")");
+  for (;;) {
+    std::lock_guard lock(c.mutex);
+    Transaction tx(c);
+    const int v = service_version(c);  // re-read under the write lock: another process may have migrated
+    if (v >= known) {
+      tx.commit();
+      return;
+    }
+    c.exec(kServiceMigrations[static_cast<size_t>(v)]);
+    Stmt row(c, std::string("INSERT INTO service_schema_migrations(version, applied_at) VALUES (?, ") + kNow + ")");
+    row.bind(1, static_cast<int64_t>(v + 1));
+    row.step();
+    tx.commit();
+  }
 }
 
 }  // namespace
 
 struct JobQueue::Impl {
-  Conn writer;  // every write, in BEGIN IMMEDIATE transactions
-  Conn reader;  // reads (WAL: never blocked by the writer)
+  Conn writer;   // every write, in BEGIN IMMEDIATE transactions
+  Conn reader;   // reads (WAL: never blocked by the writer)
+  Conn monitor;  // GET /health's reads: not behind a long list on `reader`
 };
 
 JobQueue::JobQueue(const std::filesystem::path& db_file) : impl_(std::make_unique<Impl>()) {
   impl_->writer.open(db_file, false);
   impl_->reader.open(db_file, false);
-  Stmt has(impl_->reader, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'jobs'");
-  if (!has.step())
-    throw std::runtime_error("job queue " + db_file.string() + ": no jobs table (open the file with RunStore first)");
+  impl_->monitor.open(db_file, false);
+  {
+    Stmt has(impl_->reader, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'jobs'");
+    if (!has.step())
+      throw std::runtime_error("job queue " + db_file.string() + ": no jobs table (open the file with RunStore first)");
+  }
+  migrate_service(impl_->writer);
+}
+
+Backlog JobQueue::backlog(const std::string& submitter) const {
+  std::lock_guard lock(impl_->monitor.mutex);
+  return read_backlog(impl_->monitor, submitter);
 }
 
 JobQueue::~JobQueue() = default;
 
-std::pair<Job, bool> JobQueue::submit(const JobSpec& spec, const std::optional<std::string>& key) {
+std::pair<Job, bool> JobQueue::submit(const JobSpec& spec, const std::optional<std::string>& key,
+                                      const BudgetCheck& budget) {
   Conn& c = impl_->writer;
   std::lock_guard lock(c.mutex);
   Transaction tx(c);
@@ -219,6 +282,7 @@ std::pair<Job, bool> JobQueue::submit(const JobSpec& spec, const std::optional<s
       return {*get_job(c, id), false};
     }
   }
+  if (budget) budget(read_backlog(c, spec.submitted_by));
   const int64_t id = insert_job(c, spec, std::nullopt, key);
   auto job = get_job(c, id);
   tx.commit();
@@ -228,7 +292,8 @@ std::pair<Job, bool> JobQueue::submit(const JobSpec& spec, const std::optional<s
 std::pair<SweepRow, bool> JobQueue::submit_sweep(const std::string& name, std::optional<int64_t> scene_id,
                                                  const std::string& fidelity, const std::vector<JobSpec>& jobs,
                                                  const std::optional<std::string>& key,
-                                                 const std::optional<std::string>& launched_runs_dir) {
+                                                 const std::optional<std::string>& launched_runs_dir,
+                                                 const BudgetCheck& budget) {
   Conn& c = impl_->writer;
   std::lock_guard lock(c.mutex);
   Transaction tx(c);
@@ -241,6 +306,7 @@ std::pair<SweepRow, bool> JobQueue::submit_sweep(const std::string& name, std::o
       return {row, false};
     }
   }
+  if (budget) budget(read_backlog(c, jobs.empty() ? std::string() : jobs.front().submitted_by));
   Stmt ins(c, std::string("INSERT INTO service_sweeps(name, scene_id, fidelity, idempotency_key, created_at) "
                           "VALUES (?, ?, ?, ?, ") + kNow + ")");
   ins.bind(1, name).bind(2, scene_id).bind(3, fidelity).bind(4, key);
@@ -301,9 +367,9 @@ int64_t JobQueue::count(const std::optional<std::string>& status, const std::opt
 }
 
 std::map<std::string, int64_t> JobQueue::counts_by_status() const {
-  std::lock_guard lock(impl_->reader.mutex);
+  std::lock_guard lock(impl_->monitor.mutex);
   std::map<std::string, int64_t> out{{"queued", 0}, {"running", 0}, {"done", 0}, {"failed", 0}, {"cancelled", 0}};
-  Stmt s(impl_->reader, "SELECT status, COUNT(*) FROM jobs GROUP BY status");
+  Stmt s(impl_->monitor, "SELECT status, COUNT(*) FROM jobs GROUP BY status");
   while (s.step()) out[s.text(0)] = s.int64(1);
   return out;
 }

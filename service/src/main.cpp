@@ -326,10 +326,14 @@ int cmd_serve(runout::service::ServeOptions opt, const std::string& token_file, 
       spdlog::error("serve: cannot read the token file {}", token_file);
       return 2;
     }
-    std::ostringstream s;
-    s << in.rdbuf();
-    opt.token = s.str();
-    while (!opt.token.empty() && std::isspace(static_cast<unsigned char>(opt.token.back()))) opt.token.pop_back();
+    // One token per line (each with its own work budget); surrounding whitespace and empty lines dropped.
+    for (std::string line; std::getline(in, line);) {
+      while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back()))) line.pop_back();
+      while (!line.empty() && std::isspace(static_cast<unsigned char>(line.front()))) line.erase(0, 1);
+      if (line.empty()) continue;
+      if (opt.token.empty()) opt.token = line;
+      else opt.tokens.push_back(line);
+    }
     if (opt.token.empty()) {
       spdlog::error("serve: the token file {} is empty", token_file);
       return 2;
@@ -447,6 +451,34 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   serve->add_option("--particle-budget", serve_opt.particle_budget, "Most particles a job may have")
       ->check(CLI::Range(static_cast<int64_t>(100), static_cast<int64_t>(200'000'000)))
+      ->capture_default_str();
+  serve->add_option("--header-timeout", serve_opt.header_timeout,
+                    "Seconds for a whole request head, however slowly it arrives (408 after)")
+      ->check(CLI::Range(0.1, 3600.0))
+      ->capture_default_str();
+  serve->add_option("--body-timeout", serve_opt.body_timeout, "Seconds for a whole request body (408 after)")
+      ->check(CLI::Range(0.1, 3600.0))
+      ->capture_default_str();
+  serve->add_option("--idle-timeout", serve_opt.idle_timeout, "Seconds a kept-alive connection waits for a request")
+      ->check(CLI::Range(0.1, 3600.0))
+      ->capture_default_str();
+  serve->add_option("--max-connections", serve_opt.max_connections, "Open connections in all (503 above)")
+      ->check(CLI::Range(4, 100000))
+      ->capture_default_str();
+  serve->add_option("--max-connections-per-client", serve_opt.max_connections_per_client,
+                    "Open connections of one client address (429 above)")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  serve->add_option("--http-threads", serve_opt.http_threads, "Threads that run API requests (health has its own)")
+      ->check(CLI::Range(2, 256))
+      ->capture_default_str();
+  serve->add_option("--budget-token-cpu-s", serve_opt.budget_token_cpu_s,
+                    "Most predicted CPU-seconds queued or running per token (0: no limit; 429 above)")
+      ->check(CLI::Range(0.0, 1e12))
+      ->capture_default_str();
+  serve->add_option("--budget-total-cpu-s", serve_opt.budget_total_cpu_s,
+                    "Most predicted CPU-seconds queued or running in all (0: no limit; 429 above)")
+      ->check(CLI::Range(0.0, 1e12))
       ->capture_default_str();
   serve->add_option("--runs", serve_runs, "Job outputs go to RUNS/service/job-<id>")->capture_default_str();
   serve->add_option("--scene-dir", scene_dir, "Relative file names in submitted scenes (terrain.dem) resolve here")

@@ -32,7 +32,7 @@
 #include "sweep_launcher.hpp"
 #include "web_files.hpp"
 
-#include <httplib.h>
+#include "http_front.hpp"  // httplib.h
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
@@ -60,6 +60,16 @@ void send_json(httplib::Response& res, int status, const json& j) {
 
 void send_error(httplib::Response& res, int status, const std::string& field, const std::string& message) {
   send_json(res, status, {{"error", {{"status", status}, {"field", field}, {"message", message}}}});
+}
+
+std::string lower(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string trim(const std::string& s) {
+  const size_t a = s.find_first_not_of(" \t"), b = s.find_last_not_of(" \t");
+  return a == std::string::npos ? std::string() : s.substr(a, b - a + 1);
 }
 
 json job_json(const Job& j, bool full) {
@@ -153,9 +163,11 @@ struct Route {
 struct Server::Impl {
   ServeOptions opt;
   Limits limits;
+  std::vector<std::string> tokens, token_labels;  // accepted bearer tokens; their labels (job.submitted_by)
+  std::vector<std::pair<std::string, std::string>> path_labels;  // server paths -> what errors show instead
   std::unique_ptr<RunStore> store;  // reads for the HTTP side
   std::unique_ptr<JobQueue> queue;
-  httplib::Server http;
+  std::unique_ptr<HttpFront> front;
   std::vector<Route> routes;
   std::unique_ptr<WebRoot> web;
   int lock_fd = -1;
@@ -194,19 +206,102 @@ struct Server::Impl {
     return allow + ", OPTIONS";
   }
 
-  void authorize(const httplib::Request& req) const {
-    if (opt.token.empty()) return;
+  // Who submits: the label of the request's token ("open" when writes are open). Throws 401 for a write
+  // without a valid token. Every token is compared, in constant time.
+  std::string authorize(const httplib::Request& req) const {
+    if (tokens.empty()) return "open";
     const std::string h = req.get_header_value("Authorization");
     const std::string prefix = "Bearer ";
-    if (h.size() <= prefix.size() || h.compare(0, prefix.size(), prefix) != 0 ||
-        !constant_time_equal(h.substr(prefix.size()), opt.token))
+    int found = -1;
+    if (h.size() > prefix.size() && h.compare(0, prefix.size(), prefix) == 0)
+      for (size_t k = 0; k < tokens.size(); ++k)
+        if (constant_time_equal(h.substr(prefix.size()), tokens[k])) found = static_cast<int>(k);
+    if (found < 0)
       throw ApiError(401, "Authorization", "a write needs the header 'Authorization: Bearer <token>' with the service's token");
+    return token_labels[static_cast<size_t>(found)];
   }
 
+  // Before a body is read (http_front.hpp): writes to the API need the token, so a client without it never
+  // costs the server a body.
+  bool check_head(const httplib::Request& req, httplib::Response& res) const {
+    if (tokens.empty() || (req.method != "POST" && req.method != "DELETE") || req.path.rfind(kPrefix + "/", 0) != 0)
+      return false;
+    try {
+      (void)authorize(req);
+      return false;
+    } catch (const ApiError& e) {
+      res.set_header("WWW-Authenticate", "Bearer");
+      send_error(res, e.status, e.field, e.what());
+      return true;
+    }
+  }
+
+  // The media type exactly (case-insensitive), parameters allowed; a charset, if given, must be UTF-8.
   void check_json_body(const httplib::Request& req) const {
+    if (!req.has_header("Content-Type")) return;
     const std::string ct = req.get_header_value("Content-Type");
-    if (!ct.empty() && ct.rfind("application/json", 0) != 0)
-      throw ApiError(415, "Content-Type", "must be application/json (got '" + ct.substr(0, 80) + "')");
+    const std::string accepted = " (accepted: application/json, optionally with '; charset=utf-8')";
+    bool ok = lower(trim(ct.substr(0, ct.find(';')))) == "application/json";
+    for (size_t semi = ct.find(';'); ok && semi != std::string::npos;) {
+      const size_t next = ct.find(';', semi + 1);
+      const std::string param = lower(trim(ct.substr(semi + 1, next == std::string::npos ? std::string::npos : next - semi - 1)));
+      if (param.rfind("charset=", 0) == 0) {
+        std::string v = param.substr(8);
+        if (v.size() >= 2 && v.front() == '"' && v.back() == '"') v = v.substr(1, v.size() - 2);
+        ok = v == "utf-8" || v == "utf8";
+      }
+      semi = next;
+    }
+    if (!ok) throw ApiError(415, "Content-Type", "must be application/json (got '" + ct.substr(0, 80) + "')" + accepted);
+  }
+
+  // Error messages never show the server's own paths: the scene directory's prefix is dropped (names are
+  // relative to it, as the client wrote them), the other roots are named by their option.
+  std::string scrub(std::string msg) const {
+    for (const auto& [from, to] : path_labels)
+      for (size_t at = msg.find(from); !from.empty() && at != std::string::npos; at = msg.find(from, at + to.size()))
+        msg.replace(at, from.size(), to);
+    return msg;
+  }
+
+  // The cost model's CPU-seconds of a job (run time x threads), what the work budget counts.
+  double cpu_seconds(const JobSpec& spec) const {
+    const int threads = std::max(1, threads_per_job);
+    return CostModel::calibrated().predict(spec.cost, threads).seconds * threads;
+  }
+
+  // Refuses a submission of `requested` CPU-seconds that the budget cannot take: 422 when it never could,
+  // 429 with Retry-After (how long the workers need to drain the excess) when it could later.
+  BudgetCheck budget_check(double requested) const {
+    return [this, requested](const Backlog& b) {
+      auto over = [&](const char* scope, double limit, double queued, const char* flag) {
+        json budget = {{"scope", scope}, {"limit_cpu_s", limit}, {"queued_cpu_s", queued},
+                       {"requested_cpu_s", requested}, {"option", flag}};
+        if (requested > limit) {
+          ApiError e(422, "(budget)", "the submission is predicted at " + std::to_string(std::lround(requested)) +
+                                          " CPU-s, over the work budget (accepted: at most " +
+                                          std::to_string(std::lround(limit)) + " CPU-s " + scope + ", " + flag +
+                                          "; choose a coarser fidelity or a shorter duration)");
+          e.budget_json = budget.dump();
+          throw e;
+        }
+        const double rate = std::max(1, opt.workers) * std::max(1, threads_per_job);  // CPU-s drained per s
+        const long retry = std::clamp<long>(std::lround(std::ceil((queued + requested - limit) / rate)), 1, 86400);
+        budget["retry_after_s"] = retry;
+        ApiError e(429, "(budget)", "the queue holds " + std::to_string(std::lround(queued)) + " predicted CPU-s " +
+                                        scope + "; this submission (" + std::to_string(std::lround(requested)) +
+                                        " CPU-s) would exceed the work budget (accepted: at most " +
+                                        std::to_string(std::lround(limit)) + " CPU-s queued " + scope + ", " + flag +
+                                        "); retry after " + std::to_string(retry) + " s");
+        e.headers.emplace_back("Retry-After", std::to_string(retry));
+        e.budget_json = budget.dump();
+        throw e;
+      };
+      if (opt.budget_token_cpu_s > 0 && b.mine_cpu_s + requested > opt.budget_token_cpu_s)
+        over("per token", opt.budget_token_cpu_s, b.mine_cpu_s, "--budget-token-cpu-s");
+      if (opt.budget_total_cpu_s > 0 && b.total_cpu_s + requested > opt.budget_total_cpu_s)
+        over("in all", opt.budget_total_cpu_s, b.total_cpu_s, "--budget-total-cpu-s");
+    };
   }
 
   std::optional<std::string> header_key(const httplib::Request& req) const {
@@ -253,7 +348,11 @@ struct Server::Impl {
 void Server::Impl::setup_routes() {
   add("/health", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
     only_params(req, {});
+    // Answered on a thread of its own (http_front.hpp) from a database connection of its own (jobs.hpp).
     json counts = queue->counts_by_status();
+    const Backlog b = queue->backlog("");
+    const double rate = std::max(1, opt.workers) * std::max(1, threads_per_job);
+    const FrontStats f = front ? front->stats() : FrontStats{};
     send_json(res, 200,
               {{"status", "ok"},
                {"version", RUNOUT_VERSION},
@@ -262,8 +361,27 @@ void Server::Impl::setup_routes() {
                {"busy_workers", busy.load()},
                {"threads_per_job", threads_per_job},
                {"particle_budget", opt.particle_budget},
-               {"auth", opt.token.empty() ? "open" : "bearer token for writes"},
-               {"jobs", counts}});
+               {"auth", tokens.empty() ? "open" : "bearer token for writes"},
+               {"jobs", counts},
+               {"backlog",
+                {{"jobs", b.jobs},
+                 {"cpu_seconds", b.total_cpu_s},
+                 {"drain_seconds_estimate", opt.workers > 0 ? json(b.total_cpu_s / rate) : json(nullptr)},
+                 {"budget_token_cpu_s", opt.budget_token_cpu_s},
+                 {"budget_total_cpu_s", opt.budget_total_cpu_s}}},
+               {"connections",
+                {{"open", f.open_connections},
+                 {"refused", f.refused_connections},
+                 {"timed_out", f.timed_out},
+                 {"pending_requests", f.pending},
+                 {"max_connections", opt.max_connections},
+                 {"max_connections_per_client", opt.max_connections_per_client}}},
+               {"limits",
+                {{"max_body", opt.max_body},
+                 {"max_json_depth", kMaxJsonDepth},
+                 {"header_timeout_s", opt.header_timeout},
+                 {"body_timeout_s", opt.body_timeout},
+                 {"idle_timeout_s", opt.idle_timeout}}}});
   });
   add("/openapi.json", "GET", [](const httplib::Request&, httplib::Response& res, const std::smatch&) {
     res.status = 200;
@@ -299,8 +417,10 @@ void Server::Impl::setup_routes() {
     check_json_body(req);
     const auto hkey = header_key(req);
     std::optional<std::string> bkey;
-    const JobSpec spec = parse_job_request(req.body, limits, *queue, bkey);
-    auto [job, created] = queue->submit(spec, pick_key(hkey, bkey));
+    JobSpec spec = parse_job_request(req.body, limits, *queue, bkey);
+    spec.cpu_seconds = cpu_seconds(spec);
+    spec.submitted_by = authorize(req);
+    auto [job, created] = queue->submit(spec, pick_key(hkey, bkey), budget_check(spec.cpu_seconds));
     if (created) wake.notify_one();
     res.set_header("Location", kPrefix + "/jobs/" + std::to_string(job.id));
     send_json(res, created ? 201 : 200, job_json(job, false));
@@ -359,10 +479,18 @@ void Server::Impl::setup_routes() {
     check_json_body(req);
     const auto hkey = header_key(req);
     std::optional<std::string> bkey;
-    const NewSweep s = parse_sweep_request(req.body, limits, *queue, bkey);
+    NewSweep s = parse_sweep_request(req.body, limits, *queue, bkey);
+    const std::string who = authorize(req);
+    double requested = 0;
+    for (auto& j : s.jobs) {
+      j.cpu_seconds = cpu_seconds(j);
+      j.submitted_by = who;
+      requested += j.cpu_seconds;
+    }
     std::optional<std::string> launched;  // handed to the operator's MPI launch command (sweep_launcher.hpp)
     if (launcher) launched = fs::absolute(opt.runs_dir / "service").string();
-    auto [row, created] = queue->submit_sweep(s.name, s.scene_id, s.fidelity, s.jobs, pick_key(hkey, bkey), launched);
+    auto [row, created] = queue->submit_sweep(s.name, s.scene_id, s.fidelity, s.jobs, pick_key(hkey, bkey), launched,
+                                              budget_check(requested));
     if (created && launcher) {
       try {
         launcher->launch({row.id, s.name, s.base_json, s.variants, s.fidelity, s.jobs.front().dp});
@@ -647,10 +775,13 @@ void Server::Impl::dispatch(const httplib::Request& req, httplib::Response& res)
     }
   } catch (const ApiError& e) {
     if (e.status == 401) res.set_header("WWW-Authenticate", "Bearer");
-    send_error(res, e.status, e.field, e.what());
+    for (const auto& [k, v] : e.headers) res.set_header(k, v);
+    json body = {{"error", {{"status", e.status}, {"field", e.field}, {"message", scrub(e.what())}}}};
+    if (!e.budget_json.empty()) body["budget"] = json::parse(e.budget_json);
+    send_json(res, e.status, body);
   } catch (const std::exception& e) {
     spdlog::error("{} {}: {}", req.method, req.path, e.what());
-    send_error(res, 500, "", std::string("internal error: ") + e.what());
+    send_error(res, 500, "", scrub(std::string("internal error: ") + e.what()));
   }
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   // Method, path and status only: never headers (the token) or bodies.
@@ -766,6 +897,31 @@ Server::Server(ServeOptions options) : impl_(std::make_unique<Impl>()) {
   m.opt = std::move(options);
   m.limits.particle_budget = m.opt.particle_budget;
   m.limits.scene_dir = m.opt.scene_dir;
+  if (!m.opt.token.empty()) m.tokens.push_back(m.opt.token);
+  for (const auto& t : m.opt.tokens)
+    if (!t.empty() && std::find(m.tokens.begin(), m.tokens.end(), t) == m.tokens.end()) m.tokens.push_back(t);
+  for (const auto& t : m.tokens) m.token_labels.push_back("token-" + terrain::sha256_hex(t).substr(0, 12));
+  {
+    // Longest first, so that a root inside another is replaced before it. The scene directory's prefix goes
+    // (file names read as the client wrote them); the rest are named by their option.
+    std::error_code ec;
+    std::vector<std::pair<std::string, std::string>> labels;
+    auto add_root = [&](const fs::path& p, const std::string& label, bool prefix_only) {
+      for (const fs::path& q : {fs::absolute(p, ec), fs::weakly_canonical(p, ec)}) {
+        std::string text = q.lexically_normal().string();
+        while (text.size() > 1 && text.back() == '/') text.pop_back();
+        if (text.size() <= 1) continue;
+        labels.emplace_back(text + "/", prefix_only ? "" : label + "/");
+        labels.emplace_back(text, label);
+      }
+    };
+    add_root(m.opt.scene_dir, "<scene-dir>", true);
+    add_root(m.opt.runs_dir, "<runs>", false);
+    add_root(m.opt.db, "<db>", false);
+    if (!m.opt.web_root.empty()) add_root(m.opt.web_root, "<web-root>", false);
+    std::stable_sort(labels.begin(), labels.end(), [](const auto& a, const auto& b) { return a.first.size() > b.first.size(); });
+    m.path_labels = labels;
+  }
   // One server per database file: the queue's recovery assumes no other server runs its jobs.
   const std::string lock_path = m.opt.db.string() + ".serve-lock";
   m.lock_fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
@@ -803,45 +959,32 @@ Server::~Server() {
 
 int Server::start() {
   Impl& m = *impl_;
-  m.http.set_payload_max_length(m.opt.max_body);
-  // Headers and body are separate writes: without TCP_NODELAY, Nagle + delayed ACK add ~40 ms to small replies.
-  m.http.set_tcp_nodelay(true);
-  const int http_threads = std::max(2, m.opt.http_threads);
-  m.http.new_task_queue = [http_threads] { return new httplib::ThreadPool(static_cast<size_t>(http_threads)); };
-  // Every method and path goes to one dispatcher (after httplib has read the body), which answers 404 and
-  // 405 (with Allow) itself.
-  const httplib::Server::Handler all = [&m](const httplib::Request& req, httplib::Response& res) { m.dispatch(req, res); };
-  m.http.Get(".*", all);
-  m.http.Post(".*", all);
-  m.http.Put(".*", all);
-  m.http.Patch(".*", all);
-  m.http.Delete(".*", all);
-  m.http.Options(".*", all);
-  // Errors httplib answers itself (413 body too large, 400 unreadable request): a JSON body too.
-  m.http.set_error_handler(httplib::Server::HandlerWithResponse([&m](const httplib::Request&, httplib::Response& res) {
-    if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
-    if (res.status == 413)
-      send_error(res, 413, "(body)", "the body is over the limit (accepted: at most " + std::to_string(m.opt.max_body) +
-                                         " bytes, --max-body)");
-    else
-      send_error(res, res.status, "(request)", "the request could not be read (HTTP " + std::to_string(res.status) + ")");
-    return httplib::Server::HandlerResponse::Handled;
-  }));
-  if (m.opt.port == 0) {
-    m.port = m.http.bind_to_any_port(m.opt.host);
-    if (m.port < 0) throw std::runtime_error("cannot bind to " + m.opt.host);
-  } else {
-    if (!m.http.bind_to_port(m.opt.host, m.opt.port))
-      throw std::runtime_error("cannot bind to " + m.opt.host + ":" + std::to_string(m.opt.port));
-    m.port = m.opt.port;
-  }
+  FrontOptions f;
+  f.host = m.opt.host;
+  f.port = m.opt.port;
+  f.max_body = m.opt.max_body;
+  f.header_timeout = m.opt.header_timeout;
+  f.body_timeout = m.opt.body_timeout;
+  f.idle_timeout = m.opt.idle_timeout;
+  f.max_connections = m.opt.max_connections;
+  f.max_connections_per_client = m.opt.max_connections_per_client;
+  f.handler_threads = std::max(2, m.opt.http_threads);
+  const std::string health = kPrefix + "/health";
+  m.front = std::make_unique<HttpFront>(
+      f, [&m](const httplib::Request& req, httplib::Response& res) { m.dispatch(req, res); },
+      [&m](const httplib::Request& req, httplib::Response& res) { return m.check_head(req, res); },
+      [health](const httplib::Request& req) { return (req.method == "GET" || req.method == "HEAD") && req.path == health; });
+  m.port = m.front->bind();
   const int requeued = m.queue->recover();
   if (requeued > 0) spdlog::warn("{} job(s) left running by a previous server are back in the queue", requeued);
   for (int k = 0; k < m.opt.workers; ++k) m.workers.emplace_back([&m, k] { m.worker_loop(k); });
   return m.port;
 }
 
-bool Server::serve() { return impl_->http.listen_after_bind(); }
+bool Server::serve() {
+  impl_->front->run();
+  return true;
+}
 
 void Server::stop() {
   Impl& m = *impl_;
@@ -852,7 +995,7 @@ void Server::stop() {
     for (auto& [id, f] : m.running) f->stop = true;
   }
   m.wake.notify_all();
-  m.http.stop();
+  if (m.front) m.front->stop();
   for (auto& t : m.workers) t.join();
   m.workers.clear();
   if (m.launcher) m.launcher->stop();  // launched sweeps: SIGTERM, unfinished jobs back in the queue
