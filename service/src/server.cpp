@@ -273,6 +273,7 @@ struct Server::Impl {
   // Refuses a submission of `requested` CPU-seconds that the budget cannot take: 422 when it never could,
   // 429 with Retry-After (how long the workers need to drain the excess) when it could later.
   BudgetCheck budget_check(double requested) const {
+    if (opt.budget_token_cpu_s <= 0 && opt.budget_total_cpu_s <= 0) return nullptr;  // no budget: no backlog query
     return [this, requested](const Backlog& b) {
       auto over = [&](const char* scope, double limit, double queued, const char* flag) {
         json budget = {{"scope", scope}, {"limit_cpu_s", limit}, {"queued_cpu_s", queued},
