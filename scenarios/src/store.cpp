@@ -53,58 +53,11 @@ CREATE TABLE series (
   PRIMARY KEY (run_id, name)
 );
 )sql",
-    // 2: the HTTP service (service/src/jobs.cpp, docs/service.md): stored base scenes, sweeps submitted over
-    // HTTP and the persistent job queue. Additive: the tables of version 1 are unchanged.
-    R"sql(
-CREATE TABLE service_scenes (
-  id           INTEGER PRIMARY KEY,
-  name         TEXT NOT NULL,
-  content_hash TEXT NOT NULL UNIQUE,
-  scene_json   TEXT NOT NULL,
-  structures   TEXT NOT NULL DEFAULT '[]',
-  created_at   TEXT NOT NULL
-);
-CREATE TABLE service_sweeps (
-  id              INTEGER PRIMARY KEY,
-  name            TEXT NOT NULL,
-  scene_id        INTEGER REFERENCES service_scenes(id),
-  fidelity        TEXT NOT NULL,
-  idempotency_key TEXT UNIQUE,
-  created_at      TEXT NOT NULL
-);
-CREATE TABLE jobs (
-  id               INTEGER PRIMARY KEY,
-  status           TEXT NOT NULL CHECK (status IN ('queued', 'running', 'done', 'failed', 'cancelled')),
-  scene_name       TEXT NOT NULL DEFAULT '',
-  scene_json       TEXT NOT NULL,
-  scene_id         INTEGER REFERENCES service_scenes(id),
-  fidelity         TEXT NOT NULL,
-  dp               REAL,
-  sweep_id         INTEGER REFERENCES service_sweeps(id),
-  sweep            TEXT NOT NULL DEFAULT '',
-  variant          TEXT NOT NULL DEFAULT '',
-  idempotency_key  TEXT UNIQUE,
-  particles        INTEGER NOT NULL DEFAULT 0,
-  sim_time         REAL NOT NULL DEFAULT 0,
-  duration         REAL NOT NULL DEFAULT 0,
-  steps            INTEGER NOT NULL DEFAULT 0,
-  wall_seconds     REAL NOT NULL DEFAULT 0,
-  eta_seconds      REAL,
-  attempts         INTEGER NOT NULL DEFAULT 0,
-  cancel_requested INTEGER NOT NULL DEFAULT 0,
-  run_id           INTEGER REFERENCES runs(id) ON DELETE SET NULL,
-  reused           INTEGER NOT NULL DEFAULT 0,
-  out_dir          TEXT NOT NULL DEFAULT '',
-  error            TEXT NOT NULL DEFAULT '',
-  created_at       TEXT NOT NULL,
-  started_at       TEXT,
-  finished_at      TEXT,
-  updated_at       TEXT NOT NULL
-);
-CREATE INDEX jobs_status ON jobs(status, id);
-CREATE INDEX jobs_sweep ON jobs(sweep_id, id);
-CREATE INDEX jobs_run ON jobs(run_id);
-)sql",
+    // 2: the HTTP service's tables (stored base scenes, sweeps, the job queue) were created here. The service
+    // now creates and migrates them itself (service/src/jobs.cpp, kServiceMigrations; issue 19): files that
+    // applied the old entry keep their tables, which the service's first migration finds (IF NOT EXISTS). The
+    // entry stays, empty, so that the version numbers of existing files keep their meaning.
+    R"sql(SELECT 1;)sql",
 };
 
 constexpr const char* kNow = "strftime('%Y-%m-%dT%H:%M:%fZ','now')";

@@ -205,8 +205,58 @@ Backlog read_backlog(const Conn& c, const std::string& submitter) {
 // The service's own schema versions (service_schema_migrations), beside the run store's schema_migrations:
 // entry i takes the service's tables from version i to i + 1, each in its own BEGIN IMMEDIATE with its row.
 const std::vector<const char*> kServiceMigrations = {
-    // 1: the tables themselves, made by the run store's migration 2 in files of today (nothing to do here).
-    "SELECT 1",
+    // 1: stored base scenes, sweeps submitted over HTTP and the job queue. Files made before issue 19 have them
+    // from the run store's migration 2 (scenarios/src/store.cpp), hence IF NOT EXISTS: those are left as they are.
+    R"sql(
+CREATE TABLE IF NOT EXISTS service_scenes (
+  id           INTEGER PRIMARY KEY,
+  name         TEXT NOT NULL,
+  content_hash TEXT NOT NULL UNIQUE,
+  scene_json   TEXT NOT NULL,
+  structures   TEXT NOT NULL DEFAULT '[]',
+  created_at   TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS service_sweeps (
+  id              INTEGER PRIMARY KEY,
+  name            TEXT NOT NULL,
+  scene_id        INTEGER REFERENCES service_scenes(id),
+  fidelity        TEXT NOT NULL,
+  idempotency_key TEXT UNIQUE,
+  created_at      TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS jobs (
+  id               INTEGER PRIMARY KEY,
+  status           TEXT NOT NULL CHECK (status IN ('queued', 'running', 'done', 'failed', 'cancelled')),
+  scene_name       TEXT NOT NULL DEFAULT '',
+  scene_json       TEXT NOT NULL,
+  scene_id         INTEGER REFERENCES service_scenes(id),
+  fidelity         TEXT NOT NULL,
+  dp               REAL,
+  sweep_id         INTEGER REFERENCES service_sweeps(id),
+  sweep            TEXT NOT NULL DEFAULT '',
+  variant          TEXT NOT NULL DEFAULT '',
+  idempotency_key  TEXT UNIQUE,
+  particles        INTEGER NOT NULL DEFAULT 0,
+  sim_time         REAL NOT NULL DEFAULT 0,
+  duration         REAL NOT NULL DEFAULT 0,
+  steps            INTEGER NOT NULL DEFAULT 0,
+  wall_seconds     REAL NOT NULL DEFAULT 0,
+  eta_seconds      REAL,
+  attempts         INTEGER NOT NULL DEFAULT 0,
+  cancel_requested INTEGER NOT NULL DEFAULT 0,
+  run_id           INTEGER REFERENCES runs(id) ON DELETE SET NULL,
+  reused           INTEGER NOT NULL DEFAULT 0,
+  out_dir          TEXT NOT NULL DEFAULT '',
+  error            TEXT NOT NULL DEFAULT '',
+  created_at       TEXT NOT NULL,
+  started_at       TEXT,
+  finished_at      TEXT,
+  updated_at       TEXT NOT NULL
+);
+CREATE INDEX IF NOT EXISTS jobs_status ON jobs(status, id);
+CREATE INDEX IF NOT EXISTS jobs_sweep ON jobs(sweep_id, id);
+CREATE INDEX IF NOT EXISTS jobs_run ON jobs(run_id);
+)sql",
     // 2: the work budget: each job's predicted CPU-seconds and its submitter (a token's label).
     "ALTER TABLE jobs ADD COLUMN cpu_seconds REAL NOT NULL DEFAULT 0;"
     "ALTER TABLE jobs ADD COLUMN submitted_by TEXT NOT NULL DEFAULT '';",
@@ -254,9 +304,10 @@ JobQueue::JobQueue(const std::filesystem::path& db_file) : impl_(std::make_uniqu
   impl_->reader.open(db_file, false);
   impl_->monitor.open(db_file, false);
   {
-    Stmt has(impl_->reader, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'jobs'");
+    // The jobs refer to the run store's runs: the file must be a run store (RunStore's constructor made it).
+    Stmt has(impl_->reader, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'runs'");
     if (!has.step())
-      throw std::runtime_error("job queue " + db_file.string() + ": no jobs table (open the file with RunStore first)");
+      throw std::runtime_error("job queue " + db_file.string() + ": not a run store (open the file with RunStore first)");
   }
   migrate_service(impl_->writer);
 }

@@ -1,6 +1,7 @@
 #pragma once
-// The service's persistent job queue, in the same SQLite file as the run store (tables of schema version 2,
-// scenarios/src/store.cpp; docs/service.md). States: queued -> running -> done | failed | cancelled.
+// The service's persistent job queue, in the same SQLite file as the run store; the service creates and
+// migrates its own tables (kServiceMigrations in jobs.cpp, table service_schema_migrations; docs/service.md).
+// States: queued -> running -> done | failed | cancelled.
 // Every transition is one transaction (BEGIN IMMEDIATE, WAL, synchronous FULL); claiming a job is a single
 // UPDATE ... WHERE status = 'queued' ... RETURNING, so two workers never get the same job.
 // SQLite stays out of this header.
@@ -88,7 +89,8 @@ struct SweepRow {
 
 class JobQueue {
  public:
-  // Opens its own connections to a file the run store has already migrated (RunStore's constructor).
+  // Opens its own connections to a run store (RunStore's constructor made it) and creates or migrates the
+  // service's tables in it.
   explicit JobQueue(const std::filesystem::path& db_file);
   ~JobQueue();
   JobQueue(const JobQueue&) = delete;
