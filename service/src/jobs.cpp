@@ -1,7 +1,7 @@
 // The persistent job queue (docs/service.md, "Queue").
 #include "jobs.hpp"
 
-#include <sqlite3.h>
+#include "runout/scenarios/sqlite.hpp"
 
 #include <mutex>
 #include <vector>
@@ -13,118 +13,12 @@ namespace {
 
 constexpr const char* kNow = "strftime('%Y-%m-%dT%H:%M:%fZ','now')";
 
-// One connection: WAL, synchronous FULL, busy_timeout 10 s, foreign keys, like RunStore.
-struct Conn {
-  std::filesystem::path path;
-  sqlite3* db = nullptr;
-  std::mutex mutex;
-
-  [[noreturn]] void fail(const std::string& what) const {
-    throw std::runtime_error("job queue " + path.string() + ": " + what + ": " + sqlite3_errmsg(db));
-  }
-  void exec(const char* sql) {
-    char* err = nullptr;
-    if (sqlite3_exec(db, sql, nullptr, nullptr, &err) != SQLITE_OK) {
-      std::string msg = err ? err : sqlite3_errmsg(db);
-      sqlite3_free(err);
-      throw std::runtime_error("job queue " + path.string() + ": " + sql + ": " + msg);
-    }
-  }
-  void open(const std::filesystem::path& p, bool readonly) {
-    path = p;
-    const int flags = (readonly ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE) | SQLITE_OPEN_FULLMUTEX;
-    if (sqlite3_open_v2(p.c_str(), &db, flags, nullptr) != SQLITE_OK) {
-      std::string msg = db ? sqlite3_errmsg(db) : "out of memory";
-      sqlite3_close(db);
-      db = nullptr;
-      throw std::runtime_error("job queue " + p.string() + ": opening: " + msg);
-    }
-    sqlite3_extended_result_codes(db, 1);
-    sqlite3_busy_timeout(db, 10000);
-    if (!readonly) {
-      exec("PRAGMA journal_mode = WAL");
-      exec("PRAGMA synchronous = FULL");
-    }
-    exec("PRAGMA foreign_keys = ON");
-  }
-  ~Conn() {
-    if (db) sqlite3_close_v2(db);
-  }
+// The project's one SQLite wrapper (runout/scenarios/sqlite.hpp), as the run store in the same file uses it.
+struct Conn : sqlite::Connection {
+  Conn() : sqlite::Connection("job queue") {}
 };
-
-class Stmt {
- public:
-  Stmt(const Conn& c, const std::string& sql) : c_(c) {
-    if (sqlite3_prepare_v2(c.db, sql.c_str(), static_cast<int>(sql.size()), &s_, nullptr) != SQLITE_OK)
-      c_.fail("preparing \"" + sql + "\"");
-  }
-  ~Stmt() { sqlite3_finalize(s_); }
-  Stmt(const Stmt&) = delete;
-  Stmt& operator=(const Stmt&) = delete;
-  Stmt& bind(int i, const std::string& v) {
-    check(sqlite3_bind_text64(s_, i, v.data(), v.size(), SQLITE_TRANSIENT, SQLITE_UTF8));
-    return *this;
-  }
-  Stmt& bind(int i, int64_t v) {
-    check(sqlite3_bind_int64(s_, i, v));
-    return *this;
-  }
-  Stmt& bind(int i, double v) {
-    check(sqlite3_bind_double(s_, i, v));
-    return *this;
-  }
-  template <class T>
-  Stmt& bind(int i, const std::optional<T>& v) {
-    if (v) return bind(i, *v);
-    check(sqlite3_bind_null(s_, i));
-    return *this;
-  }
-  bool step() {
-    const int rc = sqlite3_step(s_);
-    if (rc == SQLITE_ROW) return true;
-    if (rc == SQLITE_DONE) return false;
-    c_.fail("executing \"" + std::string(sqlite3_sql(s_)) + "\"");
-  }
-  void reset() {
-    sqlite3_reset(s_);
-    sqlite3_clear_bindings(s_);
-  }
-  bool null(int col) const { return sqlite3_column_type(s_, col) == SQLITE_NULL; }
-  std::string text(int col) const {
-    const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(s_, col));
-    return p ? std::string(p, static_cast<size_t>(sqlite3_column_bytes(s_, col))) : std::string();
-  }
-  int64_t int64(int col) const { return sqlite3_column_int64(s_, col); }
-  double real(int col) const { return sqlite3_column_double(s_, col); }
-  std::optional<int64_t> opt_int(int col) const { return null(col) ? std::nullopt : std::optional<int64_t>(int64(col)); }
-  std::optional<double> opt_real(int col) const { return null(col) ? std::nullopt : std::optional<double>(real(col)); }
-  std::optional<std::string> opt_text(int col) const {
-    return null(col) ? std::nullopt : std::optional<std::string>(text(col));
-  }
-
- private:
-  void check(int rc) {
-    if (rc != SQLITE_OK) c_.fail("binding");
-  }
-  const Conn& c_;
-  sqlite3_stmt* s_ = nullptr;
-};
-
-class Transaction {
- public:
-  explicit Transaction(Conn& c) : c_(c) { c_.exec("BEGIN IMMEDIATE"); }
-  ~Transaction() {
-    if (!done_) sqlite3_exec(c_.db, "ROLLBACK", nullptr, nullptr, nullptr);
-  }
-  void commit() {
-    c_.exec("COMMIT");
-    done_ = true;
-  }
-
- private:
-  Conn& c_;
-  bool done_ = false;
-};
+using sqlite::Stmt;
+using sqlite::Transaction;
 
 // Columns of a job; `full` includes the scene JSON.
 std::string job_columns(bool full) {
@@ -300,7 +194,7 @@ struct JobQueue::Impl {
 };
 
 JobQueue::JobQueue(const std::filesystem::path& db_file) : impl_(std::make_unique<Impl>()) {
-  impl_->writer.open(db_file, false);
+  impl_->writer.open(db_file, false);  // not created here: the run store makes the file
   impl_->reader.open(db_file, false);
   impl_->monitor.open(db_file, false);
   {
