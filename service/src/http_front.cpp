@@ -230,6 +230,7 @@ struct Conn {
   std::string out;
   size_t out_off = 0;
   bool close_after = false;
+  bool peer_eof = false;   // the client half-closed: answer what it sent, then close
 };
 
 // A fixed set of threads over a queue of tasks, with the queue's length visible (to refuse past a bound).
@@ -358,7 +359,13 @@ struct HttpFront::Impl {
     c.head_seen = false;
     c.req = httplib::Request();
     c.deadline = Clock::now() + secs(opt.idle_timeout);
-    return advance(c);  // a pipelined request may be waiting in `in`
+    const uint64_t id = c.id;
+    if (!advance(c) || !conns.count(id)) return false;  // a pipelined request may be waiting in `in`
+    if (c.peer_eof && (c.st == Conn::St::head || c.st == Conn::St::body)) {  // nothing more will come
+      close_conn(id);
+      return false;
+    }
+    return true;
   }
 
   bool respond(Conn& c, std::string bytes, bool close_after) {
@@ -383,6 +390,10 @@ struct HttpFront::Impl {
         res = httplib::Response();
         res.status = 500;
         res.set_content(error_body(500, "", std::string("internal error: ") + e.what()), "application/json");
+      } catch (...) {
+        res = httplib::Response();
+        res.status = 500;
+        res.set_content(error_body(500, "", "internal error"), "application/json");
       }
       Done d{id, serialize(res.status, res.headers, res.body, req.method == "HEAD", keep), !keep};
       {
@@ -617,6 +628,7 @@ struct HttpFront::Impl {
   void read_from(Conn& c) {
     char buf[65536];
     size_t total = 0;
+    bool eof = false;
     for (;;) {
       const ssize_t n = ::recv(c.fd, buf, sizeof buf, MSG_DONTWAIT);
       if (n > 0) {
@@ -627,10 +639,19 @@ struct HttpFront::Impl {
       }
       if (n < 0 && errno == EINTR) continue;
       if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
-      close_conn(c.id);  // EOF or error
-      return;
+      if (n < 0) {  // reset: nobody to answer
+        close_conn(c.id);
+        return;
+      }
+      eof = true;
+      break;
     }
-    if (c.st == Conn::St::head || c.st == Conn::St::body) advance(c);
+    const uint64_t id = c.id;
+    if ((c.st == Conn::St::head || c.st == Conn::St::body) && !advance(c)) return;
+    if (!eof || !conns.count(id)) return;
+    // The client has finished sending (a half-close): a request it completed is still answered, then closed.
+    if (c.st == Conn::St::busy || c.st == Conn::St::write) c.peer_eof = true;
+    else close_conn(id);
   }
 
   void expire(Conn& c) {

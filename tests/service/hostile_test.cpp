@@ -35,6 +35,7 @@ class Raw {
   Raw(const Raw&) = delete;
   Raw& operator=(const Raw&) = delete;
   bool connected() const { return ok_; }
+  void shutdown_write() { ::shutdown(fd_, SHUT_WR); }
   bool send(const std::string& s) {
     size_t off = 0;
     while (off < s.size()) {
@@ -45,7 +46,8 @@ class Raw {
     return true;
   }
   // Reads until one whole response (head and Content-Length body) has arrived, the peer closes, or the timeout.
-  std::string response(std::chrono::milliseconds timeout = 5000ms) {
+  // A response to HEAD (`head_only`) has a Content-Length but no body.
+  std::string response(std::chrono::milliseconds timeout = 5000ms, bool head_only = false) {
     const auto end = std::chrono::steady_clock::now() + timeout;
     while (std::chrono::steady_clock::now() < end) {
       const size_t h = buf_.find("\r\n\r\n");
@@ -53,7 +55,7 @@ class Raw {
         std::smatch m;
         const std::string head = buf_.substr(0, h);
         const std::regex cl("Content-Length: ([0-9]+)", std::regex::icase);
-        const size_t len = std::regex_search(head, m, cl) ? std::stoul(m[1].str()) : 0;
+        const size_t len = !head_only && std::regex_search(head, m, cl) ? std::stoul(m[1].str()) : 0;
         if (buf_.size() >= h + 4 + len) {
           std::string r = buf_.substr(0, h + 4 + len);
           buf_.erase(0, h + 4 + len);
@@ -331,6 +333,23 @@ TEST_F(Hostile, QueriesMediaTypesKeysAndLengthsAreStrict) {
   EXPECT_EQ(status_of(raw_post("Content-Length: " + n + "\r\nTransfer-Encoding: chunked\r\n", body)), 400);
   EXPECT_EQ(status_of(raw_post("Content-Length: -1\r\n", body)), 400);
   EXPECT_EQ(query_int("SELECT COUNT(*) FROM jobs"), 0);  // nothing refused was written
+}
+
+// Pipelined requests are answered in order; a request followed by a half-close is still answered.
+TEST_F(Hostile, PipelinedAndHalfClosedRequestsAreAnswered) {
+  start({"--workers", "0"});
+  Raw c(server_.port());
+  ASSERT_TRUE(c.send("GET /api/v1/health HTTP/1.1\r\nHost: x\r\n\r\nHEAD /api/v1/openapi.json HTTP/1.1\r\nHost: x\r\n\r\n"
+                     "GET /api/v1/jobs?limit=2 HTTP/1.1\r\nHost: x\r\n\r\n"));
+  c.shutdown_write();
+  const std::string a = c.response(), b = c.response(5000ms, true), d = c.response();
+  EXPECT_EQ(status_of(a), 200);
+  EXPECT_TRUE(body_of(a).contains("backlog")) << a.substr(0, 200);
+  EXPECT_EQ(status_of(b), 200);
+  EXPECT_EQ(b.substr(b.find("\r\n\r\n") + 4), "");  // HEAD: no body
+  EXPECT_EQ(status_of(d), 200);
+  EXPECT_EQ(body_of(d).at("limit"), 2) << d.substr(0, 200);
+  EXPECT_TRUE(c.closed_within(3000ms));
 }
 
 // The work budget: predicted CPU-seconds queued per token and in all; over it 429 with Retry-After.
