@@ -401,6 +401,11 @@ TEST_F(Hostile, WorkBudgetRefusesWithRetryAfterPerTokenAndInAll) {
   const int64_t id = first.body.at("jobs")[0].at("id");
   EXPECT_EQ(request("DELETE", "/api/v1/jobs/" + std::to_string(id), "", auth()).status, 200);
   EXPECT_EQ(submit("a4", kToken).status, 201);
+  // A sweep is counted whole: one more job's worth is over this token's budget, and nothing is written.
+  const Reply sweep = post("/sweeps", {{"name", "over"}, {"base", tiny_scene("sweep")}, {"variants", json::array({{{"name", "C0"}}})}},
+                           auth());
+  EXPECT_EQ(sweep.status, 429) << sweep.text.substr(0, 300);
+  EXPECT_EQ(query_int("SELECT COUNT(*) FROM service_sweeps"), 0);
   // A job that alone exceeds the budget can never be accepted: 422, not 429.
   const Reply huge = post("/jobs", {{"scene", tiny_scene("huge", 1000.0)}}, auth());
   EXPECT_EQ(huge.status, 422) << huge.text.substr(0, 300);
