@@ -1,7 +1,7 @@
 // The SQLite run store. docs/store.md describes the schema, migrations and crash safety.
 #include "runout/scenarios/store.hpp"
 
-#include <sqlite3.h>
+#include "runout/scenarios/sqlite.hpp"
 
 #include <cmath>
 #include <mutex>
@@ -53,58 +53,11 @@ CREATE TABLE series (
   PRIMARY KEY (run_id, name)
 );
 )sql",
-    // 2: the HTTP service (service/src/jobs.cpp, docs/service.md): stored base scenes, sweeps submitted over
-    // HTTP and the persistent job queue. Additive: the tables of version 1 are unchanged.
-    R"sql(
-CREATE TABLE service_scenes (
-  id           INTEGER PRIMARY KEY,
-  name         TEXT NOT NULL,
-  content_hash TEXT NOT NULL UNIQUE,
-  scene_json   TEXT NOT NULL,
-  structures   TEXT NOT NULL DEFAULT '[]',
-  created_at   TEXT NOT NULL
-);
-CREATE TABLE service_sweeps (
-  id              INTEGER PRIMARY KEY,
-  name            TEXT NOT NULL,
-  scene_id        INTEGER REFERENCES service_scenes(id),
-  fidelity        TEXT NOT NULL,
-  idempotency_key TEXT UNIQUE,
-  created_at      TEXT NOT NULL
-);
-CREATE TABLE jobs (
-  id               INTEGER PRIMARY KEY,
-  status           TEXT NOT NULL CHECK (status IN ('queued', 'running', 'done', 'failed', 'cancelled')),
-  scene_name       TEXT NOT NULL DEFAULT '',
-  scene_json       TEXT NOT NULL,
-  scene_id         INTEGER REFERENCES service_scenes(id),
-  fidelity         TEXT NOT NULL,
-  dp               REAL,
-  sweep_id         INTEGER REFERENCES service_sweeps(id),
-  sweep            TEXT NOT NULL DEFAULT '',
-  variant          TEXT NOT NULL DEFAULT '',
-  idempotency_key  TEXT UNIQUE,
-  particles        INTEGER NOT NULL DEFAULT 0,
-  sim_time         REAL NOT NULL DEFAULT 0,
-  duration         REAL NOT NULL DEFAULT 0,
-  steps            INTEGER NOT NULL DEFAULT 0,
-  wall_seconds     REAL NOT NULL DEFAULT 0,
-  eta_seconds      REAL,
-  attempts         INTEGER NOT NULL DEFAULT 0,
-  cancel_requested INTEGER NOT NULL DEFAULT 0,
-  run_id           INTEGER REFERENCES runs(id) ON DELETE SET NULL,
-  reused           INTEGER NOT NULL DEFAULT 0,
-  out_dir          TEXT NOT NULL DEFAULT '',
-  error            TEXT NOT NULL DEFAULT '',
-  created_at       TEXT NOT NULL,
-  started_at       TEXT,
-  finished_at      TEXT,
-  updated_at       TEXT NOT NULL
-);
-CREATE INDEX jobs_status ON jobs(status, id);
-CREATE INDEX jobs_sweep ON jobs(sweep_id, id);
-CREATE INDEX jobs_run ON jobs(run_id);
-)sql",
+    // 2: the HTTP service's tables (stored base scenes, sweeps, the job queue) were created here. The service
+    // now creates and migrates them itself (service/src/jobs.cpp, kServiceMigrations; issue 19): files that
+    // applied the old entry keep their tables, which the service's first migration finds (IF NOT EXISTS). The
+    // entry stays, empty, so that the version numbers of existing files keep their meaning.
+    R"sql(SELECT 1;)sql",
 };
 
 constexpr const char* kNow = "strftime('%Y-%m-%dT%H:%M:%fZ','now')";
@@ -172,28 +125,12 @@ std::map<std::string, double> flatten_metrics(const std::string& metrics_json) {
 
 // ---------------------------------------------------------------------------------------------------------
 
-// The connection; RunStore::Impl is this (a named type so the helpers below can take it).
+// The connection (the project's SQLite wrapper, runout/scenarios/sqlite.hpp, shared with the service's job
+// queue); RunStore::Impl is this (a named type so the helpers below can take it).
 namespace detail {
-struct StoreDb {
-  std::filesystem::path path;
-  sqlite3* db = nullptr;
+struct StoreDb : sqlite::Connection {
+  StoreDb() : sqlite::Connection("run store") {}
   int version = 0;
-  std::mutex mutex;  // one connection; calls from several threads are serialised
-
-  [[noreturn]] void fail(const std::string& what) const {
-    std::string msg = "run store " + path.string() + ": " + what;
-    if (db) msg += ": " + std::string(sqlite3_errmsg(db));
-    throw std::runtime_error(msg);
-  }
-
-  void exec(const char* sql, const std::string& what) {
-    char* err = nullptr;
-    if (sqlite3_exec(db, sql, nullptr, nullptr, &err) != SQLITE_OK) {
-      std::string msg = err ? err : sqlite3_errmsg(db);
-      sqlite3_free(err);
-      throw std::runtime_error("run store " + path.string() + ": " + what + ": " + msg);
-    }
-  }
 };
 }  // namespace detail
 
@@ -201,74 +138,8 @@ struct RunStore::Impl : detail::StoreDb {};
 
 namespace {
 
-// A prepared statement; text is bound without copying (the caller keeps the strings alive until the
-// statement is stepped and reset).
-class Stmt {
- public:
-  Stmt(const detail::StoreDb& impl, const std::string& sql) : impl_(impl) {
-    if (sqlite3_prepare_v2(impl.db, sql.c_str(), static_cast<int>(sql.size()), &s_, nullptr) != SQLITE_OK)
-      impl_.fail("preparing \"" + sql + "\"");
-  }
-  ~Stmt() { sqlite3_finalize(s_); }
-  Stmt(const Stmt&) = delete;
-  Stmt& operator=(const Stmt&) = delete;
-
-  Stmt& bind(int i, const std::string& v) {
-    check(sqlite3_bind_text64(s_, i, v.data(), v.size(), SQLITE_STATIC, SQLITE_UTF8), "binding text");
-    return *this;
-  }
-  Stmt& bind(int i, int64_t v) {
-    check(sqlite3_bind_int64(s_, i, v), "binding integer");
-    return *this;
-  }
-  Stmt& bind(int i, double v) {
-    check(sqlite3_bind_double(s_, i, v), "binding real");
-    return *this;
-  }
-  // True for a row, false when done.
-  bool step() {
-    const int rc = sqlite3_step(s_);
-    if (rc == SQLITE_ROW) return true;
-    if (rc == SQLITE_DONE) return false;
-    impl_.fail("executing \"" + std::string(sqlite3_sql(s_)) + "\"");
-  }
-  void reset() {
-    sqlite3_reset(s_);
-    sqlite3_clear_bindings(s_);
-  }
-  std::string text(int col) const {
-    const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(s_, col));
-    const int n = sqlite3_column_bytes(s_, col);
-    return p ? std::string(p, static_cast<std::size_t>(n)) : std::string();
-  }
-  int64_t int64(int col) const { return sqlite3_column_int64(s_, col); }
-  double real(int col) const { return sqlite3_column_double(s_, col); }
-
- private:
-  void check(int rc, const char* what) {
-    if (rc != SQLITE_OK) impl_.fail(what);
-  }
-  const detail::StoreDb& impl_;
-  sqlite3_stmt* s_ = nullptr;
-};
-
-// BEGIN IMMEDIATE (takes the write lock up front, so busy_timeout applies at the start rather than as a
-// deadlock at the first write); rolls back unless committed.
-class Transaction {
- public:
-  explicit Transaction(detail::StoreDb& impl) : impl_(impl) { impl_.exec("BEGIN IMMEDIATE", "beginning a transaction"); }
-  ~Transaction() {
-    if (!done_) sqlite3_exec(impl_.db, "ROLLBACK", nullptr, nullptr, nullptr);
-  }
-  void commit() {
-    impl_.exec("COMMIT", "committing");
-    done_ = true;
-  }
-
- private:
-  detail::StoreDb& impl_;
-  bool done_ = false;
-};
+using sqlite::Stmt;
+using sqlite::Transaction;
 
 int read_version(detail::StoreDb& impl) {
   Stmt has(impl, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'schema_migrations'");
@@ -310,26 +181,8 @@ void require_run(const detail::StoreDb& impl, int64_t run_id) {
 
 RunStore::RunStore(const std::filesystem::path& db_file) : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
-  m.path = db_file;
-  const int flags = SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX;
-  if (sqlite3_open_v2(db_file.c_str(), &m.db, flags, nullptr) != SQLITE_OK) {
-    std::string msg = m.db ? sqlite3_errmsg(m.db) : "out of memory";
-    sqlite3_close(m.db);
-    m.db = nullptr;
-    throw std::runtime_error("run store " + db_file.string() + ": opening: " + msg);
-  }
+  m.open(db_file, true);  // WAL, synchronous FULL, busy_timeout 10 s, foreign keys
   try {
-    sqlite3_extended_result_codes(m.db, 1);
-    if (sqlite3_busy_timeout(m.db, 10000) != SQLITE_OK) m.fail("setting busy_timeout");
-    {
-      Stmt wal(m, "PRAGMA journal_mode = WAL");
-      if (!wal.step() || wal.text(0) != "wal")
-        throw std::runtime_error("run store " + m.path.string() + ": cannot use WAL journal mode (got \"" +
-                                 wal.text(0) + "\")");
-    }
-    m.exec("PRAGMA synchronous = FULL", "setting synchronous");
-    m.exec("PRAGMA foreign_keys = ON", "enabling foreign keys");
-
     const int known = static_cast<int>(kMigrations.size());
     m.version = read_version(m);
     if (m.version > known) refuse_newer(m, m.version);
@@ -349,15 +202,12 @@ RunStore::RunStore(const std::filesystem::path& db_file) : impl_(std::make_uniqu
       m.version = read_version(m);
     }
   } catch (...) {
-    sqlite3_close_v2(m.db);
-    m.db = nullptr;
+    m.close();
     throw;
   }
 }
 
-RunStore::~RunStore() {
-  if (impl_ && impl_->db) sqlite3_close_v2(impl_->db);
-}
+RunStore::~RunStore() = default;  // the connection closes itself
 
 const std::filesystem::path& RunStore::path() const { return impl_->path; }
 

@@ -1,9 +1,10 @@
 // The persistent job queue (docs/service.md, "Queue").
 #include "jobs.hpp"
 
-#include <sqlite3.h>
+#include "runout/scenarios/sqlite.hpp"
 
 #include <mutex>
+#include <vector>
 #include <stdexcept>
 
 namespace runout::service {
@@ -12,118 +13,12 @@ namespace {
 
 constexpr const char* kNow = "strftime('%Y-%m-%dT%H:%M:%fZ','now')";
 
-// One connection: WAL, synchronous FULL, busy_timeout 10 s, foreign keys, like RunStore.
-struct Conn {
-  std::filesystem::path path;
-  sqlite3* db = nullptr;
-  std::mutex mutex;
-
-  [[noreturn]] void fail(const std::string& what) const {
-    throw std::runtime_error("job queue " + path.string() + ": " + what + ": " + sqlite3_errmsg(db));
-  }
-  void exec(const char* sql) {
-    char* err = nullptr;
-    if (sqlite3_exec(db, sql, nullptr, nullptr, &err) != SQLITE_OK) {
-      std::string msg = err ? err : sqlite3_errmsg(db);
-      sqlite3_free(err);
-      throw std::runtime_error("job queue " + path.string() + ": " + sql + ": " + msg);
-    }
-  }
-  void open(const std::filesystem::path& p, bool readonly) {
-    path = p;
-    const int flags = (readonly ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE) | SQLITE_OPEN_FULLMUTEX;
-    if (sqlite3_open_v2(p.c_str(), &db, flags, nullptr) != SQLITE_OK) {
-      std::string msg = db ? sqlite3_errmsg(db) : "out of memory";
-      sqlite3_close(db);
-      db = nullptr;
-      throw std::runtime_error("job queue " + p.string() + ": opening: " + msg);
-    }
-    sqlite3_extended_result_codes(db, 1);
-    sqlite3_busy_timeout(db, 10000);
-    if (!readonly) {
-      exec("PRAGMA journal_mode = WAL");
-      exec("PRAGMA synchronous = FULL");
-    }
-    exec("PRAGMA foreign_keys = ON");
-  }
-  ~Conn() {
-    if (db) sqlite3_close_v2(db);
-  }
+// The project's one SQLite wrapper (runout/scenarios/sqlite.hpp), as the run store in the same file uses it.
+struct Conn : sqlite::Connection {
+  Conn() : sqlite::Connection("job queue") {}
 };
-
-class Stmt {
- public:
-  Stmt(const Conn& c, const std::string& sql) : c_(c) {
-    if (sqlite3_prepare_v2(c.db, sql.c_str(), static_cast<int>(sql.size()), &s_, nullptr) != SQLITE_OK)
-      c_.fail("preparing \"" + sql + "\"");
-  }
-  ~Stmt() { sqlite3_finalize(s_); }
-  Stmt(const Stmt&) = delete;
-  Stmt& operator=(const Stmt&) = delete;
-  Stmt& bind(int i, const std::string& v) {
-    check(sqlite3_bind_text64(s_, i, v.data(), v.size(), SQLITE_TRANSIENT, SQLITE_UTF8));
-    return *this;
-  }
-  Stmt& bind(int i, int64_t v) {
-    check(sqlite3_bind_int64(s_, i, v));
-    return *this;
-  }
-  Stmt& bind(int i, double v) {
-    check(sqlite3_bind_double(s_, i, v));
-    return *this;
-  }
-  template <class T>
-  Stmt& bind(int i, const std::optional<T>& v) {
-    if (v) return bind(i, *v);
-    check(sqlite3_bind_null(s_, i));
-    return *this;
-  }
-  bool step() {
-    const int rc = sqlite3_step(s_);
-    if (rc == SQLITE_ROW) return true;
-    if (rc == SQLITE_DONE) return false;
-    c_.fail("executing \"" + std::string(sqlite3_sql(s_)) + "\"");
-  }
-  void reset() {
-    sqlite3_reset(s_);
-    sqlite3_clear_bindings(s_);
-  }
-  bool null(int col) const { return sqlite3_column_type(s_, col) == SQLITE_NULL; }
-  std::string text(int col) const {
-    const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(s_, col));
-    return p ? std::string(p, static_cast<size_t>(sqlite3_column_bytes(s_, col))) : std::string();
-  }
-  int64_t int64(int col) const { return sqlite3_column_int64(s_, col); }
-  double real(int col) const { return sqlite3_column_double(s_, col); }
-  std::optional<int64_t> opt_int(int col) const { return null(col) ? std::nullopt : std::optional<int64_t>(int64(col)); }
-  std::optional<double> opt_real(int col) const { return null(col) ? std::nullopt : std::optional<double>(real(col)); }
-  std::optional<std::string> opt_text(int col) const {
-    return null(col) ? std::nullopt : std::optional<std::string>(text(col));
-  }
-
- private:
-  void check(int rc) {
-    if (rc != SQLITE_OK) c_.fail("binding");
-  }
-  const Conn& c_;
-  sqlite3_stmt* s_ = nullptr;
-};
-
-class Transaction {
- public:
-  explicit Transaction(Conn& c) : c_(c) { c_.exec("BEGIN IMMEDIATE"); }
-  ~Transaction() {
-    if (!done_) sqlite3_exec(c_.db, "ROLLBACK", nullptr, nullptr, nullptr);
-  }
-  void commit() {
-    c_.exec("COMMIT");
-    done_ = true;
-  }
-
- private:
-  Conn& c_;
-  bool done_ = false;
-};
+using sqlite::Stmt;
+using sqlite::Transaction;
 
 // Columns of a job; `full` includes the scene JSON.
 std::string job_columns(bool full) {
@@ -179,34 +74,147 @@ std::optional<Job> get_job(const Conn& c, int64_t id, bool full = true) {
 
 int64_t insert_job(Conn& c, const JobSpec& spec, std::optional<int64_t> sweep_id, const std::optional<std::string>& key) {
   Stmt ins(c, std::string("INSERT INTO jobs(status, scene_name, scene_json, scene_id, fidelity, dp, sweep_id, sweep, "
-                          "variant, idempotency_key, particles, duration, created_at, updated_at) "
-                          "VALUES ('queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ") +
+                          "variant, idempotency_key, particles, duration, cpu_seconds, submitted_by, created_at, "
+                          "updated_at) VALUES ('queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ") +
                   kNow + ", " + kNow + ")");
   ins.bind(1, spec.scene_name).bind(2, spec.scene_json).bind(3, spec.scene_id).bind(4, spec.fidelity).bind(5, spec.dp);
   ins.bind(6, sweep_id).bind(7, spec.sweep).bind(8, spec.variant).bind(9, key).bind(10, spec.particles);
-  ins.bind(11, spec.duration);
+  ins.bind(11, spec.duration).bind(12, spec.cpu_seconds).bind(13, spec.submitted_by);
   ins.step();
   return sqlite3_last_insert_rowid(c.db);
+}
+
+// A running job counts by the fraction it has left.
+const char* kRemainingCpu =
+    "cpu_seconds * CASE WHEN status = 'running' AND duration > 0 THEN MAX(0.0, 1.0 - sim_time / duration) ELSE 1.0 END";
+
+Backlog read_backlog(const Conn& c, const std::string& submitter) {
+  Stmt s(c, std::string("SELECT COALESCE(SUM(") + kRemainingCpu + "), 0), COALESCE(SUM(CASE WHEN submitted_by = ?1 THEN " +
+                kRemainingCpu + " ELSE 0 END), 0), COUNT(*) FROM jobs WHERE status IN ('queued', 'running')");
+  s.bind(1, submitter);
+  s.step();
+  return {s.real(0), s.real(1), s.int64(2)};
+}
+
+// The service's own schema versions (service_schema_migrations), beside the run store's schema_migrations:
+// entry i takes the service's tables from version i to i + 1, each in its own BEGIN IMMEDIATE with its row.
+const std::vector<const char*> kServiceMigrations = {
+    // 1: stored base scenes, sweeps submitted over HTTP and the job queue. Files made before issue 19 have them
+    // from the run store's migration 2 (scenarios/src/store.cpp), hence IF NOT EXISTS: those are left as they are.
+    R"sql(
+CREATE TABLE IF NOT EXISTS service_scenes (
+  id           INTEGER PRIMARY KEY,
+  name         TEXT NOT NULL,
+  content_hash TEXT NOT NULL UNIQUE,
+  scene_json   TEXT NOT NULL,
+  structures   TEXT NOT NULL DEFAULT '[]',
+  created_at   TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS service_sweeps (
+  id              INTEGER PRIMARY KEY,
+  name            TEXT NOT NULL,
+  scene_id        INTEGER REFERENCES service_scenes(id),
+  fidelity        TEXT NOT NULL,
+  idempotency_key TEXT UNIQUE,
+  created_at      TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS jobs (
+  id               INTEGER PRIMARY KEY,
+  status           TEXT NOT NULL CHECK (status IN ('queued', 'running', 'done', 'failed', 'cancelled')),
+  scene_name       TEXT NOT NULL DEFAULT '',
+  scene_json       TEXT NOT NULL,
+  scene_id         INTEGER REFERENCES service_scenes(id),
+  fidelity         TEXT NOT NULL,
+  dp               REAL,
+  sweep_id         INTEGER REFERENCES service_sweeps(id),
+  sweep            TEXT NOT NULL DEFAULT '',
+  variant          TEXT NOT NULL DEFAULT '',
+  idempotency_key  TEXT UNIQUE,
+  particles        INTEGER NOT NULL DEFAULT 0,
+  sim_time         REAL NOT NULL DEFAULT 0,
+  duration         REAL NOT NULL DEFAULT 0,
+  steps            INTEGER NOT NULL DEFAULT 0,
+  wall_seconds     REAL NOT NULL DEFAULT 0,
+  eta_seconds      REAL,
+  attempts         INTEGER NOT NULL DEFAULT 0,
+  cancel_requested INTEGER NOT NULL DEFAULT 0,
+  run_id           INTEGER REFERENCES runs(id) ON DELETE SET NULL,
+  reused           INTEGER NOT NULL DEFAULT 0,
+  out_dir          TEXT NOT NULL DEFAULT '',
+  error            TEXT NOT NULL DEFAULT '',
+  created_at       TEXT NOT NULL,
+  started_at       TEXT,
+  finished_at      TEXT,
+  updated_at       TEXT NOT NULL
+);
+CREATE INDEX IF NOT EXISTS jobs_status ON jobs(status, id);
+CREATE INDEX IF NOT EXISTS jobs_sweep ON jobs(sweep_id, id);
+CREATE INDEX IF NOT EXISTS jobs_run ON jobs(run_id);
+)sql",
+    // 2: the work budget: each job's predicted CPU-seconds and its submitter (a token's label).
+    "ALTER TABLE jobs ADD COLUMN cpu_seconds REAL NOT NULL DEFAULT 0;"
+    "ALTER TABLE jobs ADD COLUMN submitted_by TEXT NOT NULL DEFAULT '';",
+};
+
+int service_version(Conn& c) {
+  Stmt s(c, "SELECT COALESCE(MAX(version), 0) FROM service_schema_migrations");
+  s.step();
+  return static_cast<int>(s.int64(0));
+}
+
+void migrate_service(Conn& c) {
+  c.exec("CREATE TABLE IF NOT EXISTS service_schema_migrations (version INTEGER PRIMARY KEY, applied_at TEXT NOT NULL)");
+  const int known = static_cast<int>(kServiceMigrations.size());
+  if (service_version(c) > known)
+    throw std::runtime_error("job queue " + c.path.string() + ": the service's schema version " +
+                             std::to_string(service_version(c)) + " is newer than this program knows (" +
+                             std::to_string(known) + ")");
+  for (;;) {
+    std::lock_guard lock(c.mutex);
+    Transaction tx(c);
+    const int v = service_version(c);  // re-read under the write lock: another process may have migrated
+    if (v >= known) {
+      tx.commit();
+      return;
+    }
+    c.exec(kServiceMigrations[static_cast<size_t>(v)]);
+    Stmt row(c, std::string("INSERT INTO service_schema_migrations(version, applied_at) VALUES (?, ") + kNow + ")");
+    row.bind(1, static_cast<int64_t>(v + 1));
+    row.step();
+    tx.commit();
+  }
 }
 
 }  // namespace
 
 struct JobQueue::Impl {
-  Conn writer;  // every write, in BEGIN IMMEDIATE transactions
-  Conn reader;  // reads (WAL: never blocked by the writer)
+  Conn writer;   // every write, in BEGIN IMMEDIATE transactions
+  Conn reader;   // reads (WAL: never blocked by the writer)
+  Conn monitor;  // GET /health's reads: not behind a long list on `reader`
 };
 
 JobQueue::JobQueue(const std::filesystem::path& db_file) : impl_(std::make_unique<Impl>()) {
-  impl_->writer.open(db_file, false);
+  impl_->writer.open(db_file, false);  // not created here: the run store makes the file
   impl_->reader.open(db_file, false);
-  Stmt has(impl_->reader, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'jobs'");
-  if (!has.step())
-    throw std::runtime_error("job queue " + db_file.string() + ": no jobs table (open the file with RunStore first)");
+  impl_->monitor.open(db_file, false);
+  {
+    // The jobs refer to the run store's runs: the file must be a run store (RunStore's constructor made it).
+    Stmt has(impl_->reader, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'runs'");
+    if (!has.step())
+      throw std::runtime_error("job queue " + db_file.string() + ": not a run store (open the file with RunStore first)");
+  }
+  migrate_service(impl_->writer);
+}
+
+Backlog JobQueue::backlog(const std::string& submitter) const {
+  std::lock_guard lock(impl_->monitor.mutex);
+  return read_backlog(impl_->monitor, submitter);
 }
 
 JobQueue::~JobQueue() = default;
 
-std::pair<Job, bool> JobQueue::submit(const JobSpec& spec, const std::optional<std::string>& key) {
+std::pair<Job, bool> JobQueue::submit(const JobSpec& spec, const std::optional<std::string>& key,
+                                      const BudgetCheck& budget) {
   Conn& c = impl_->writer;
   std::lock_guard lock(c.mutex);
   Transaction tx(c);
@@ -219,6 +227,7 @@ std::pair<Job, bool> JobQueue::submit(const JobSpec& spec, const std::optional<s
       return {*get_job(c, id), false};
     }
   }
+  if (budget) budget(read_backlog(c, spec.submitted_by));
   const int64_t id = insert_job(c, spec, std::nullopt, key);
   auto job = get_job(c, id);
   tx.commit();
@@ -228,7 +237,8 @@ std::pair<Job, bool> JobQueue::submit(const JobSpec& spec, const std::optional<s
 std::pair<SweepRow, bool> JobQueue::submit_sweep(const std::string& name, std::optional<int64_t> scene_id,
                                                  const std::string& fidelity, const std::vector<JobSpec>& jobs,
                                                  const std::optional<std::string>& key,
-                                                 const std::optional<std::string>& launched_runs_dir) {
+                                                 const std::optional<std::string>& launched_runs_dir,
+                                                 const BudgetCheck& budget) {
   Conn& c = impl_->writer;
   std::lock_guard lock(c.mutex);
   Transaction tx(c);
@@ -241,6 +251,7 @@ std::pair<SweepRow, bool> JobQueue::submit_sweep(const std::string& name, std::o
       return {row, false};
     }
   }
+  if (budget) budget(read_backlog(c, jobs.empty() ? std::string() : jobs.front().submitted_by));
   Stmt ins(c, std::string("INSERT INTO service_sweeps(name, scene_id, fidelity, idempotency_key, created_at) "
                           "VALUES (?, ?, ?, ?, ") + kNow + ")");
   ins.bind(1, name).bind(2, scene_id).bind(3, fidelity).bind(4, key);
@@ -301,9 +312,9 @@ int64_t JobQueue::count(const std::optional<std::string>& status, const std::opt
 }
 
 std::map<std::string, int64_t> JobQueue::counts_by_status() const {
-  std::lock_guard lock(impl_->reader.mutex);
+  std::lock_guard lock(impl_->monitor.mutex);
   std::map<std::string, int64_t> out{{"queued", 0}, {"running", 0}, {"done", 0}, {"failed", 0}, {"cancelled", 0}};
-  Stmt s(impl_->reader, "SELECT status, COUNT(*) FROM jobs GROUP BY status");
+  Stmt s(impl_->monitor, "SELECT status, COUNT(*) FROM jobs GROUP BY status");
   while (s.step()) out[s.text(0)] = s.int64(1);
   return out;
 }

@@ -1,12 +1,14 @@
 #pragma once
-// The service's persistent job queue, in the same SQLite file as the run store (tables of schema version 2,
-// scenarios/src/store.cpp; docs/service.md). States: queued -> running -> done | failed | cancelled.
+// The service's persistent job queue, in the same SQLite file as the run store; the service creates and
+// migrates its own tables (kServiceMigrations in jobs.cpp, table service_schema_migrations; docs/service.md).
+// States: queued -> running -> done | failed | cancelled.
 // Every transition is one transaction (BEGIN IMMEDIATE, WAL, synchronous FULL); claiming a job is a single
 // UPDATE ... WHERE status = 'queued' ... RETURNING, so two workers never get the same job.
 // SQLite stays out of this header.
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -31,7 +33,21 @@ struct JobSpec {
   int64_t fluid_particles = 0, boundary_particles = 0;
   int dimensions = 0;
   CostFeatures cost;
+  // The work budget (docs/service.md, "Limits"): the cost model's CPU-seconds (run time x threads) and who
+  // submitted it (a label of the token, never the token); both stored with the job.
+  double cpu_seconds = 0;
+  std::string submitted_by;
 };
+
+// Predicted CPU-seconds of the jobs that are queued or running (a running job's by its remaining fraction).
+struct Backlog {
+  double total_cpu_s = 0;  // every submitter's
+  double mine_cpu_s = 0;   // the one submitter's asked about
+  int64_t jobs = 0;        // queued + running
+};
+// Called inside a submission's transaction, after the idempotency key was looked up and before anything is
+// written: throwing refuses the submission (the transaction is rolled back).
+using BudgetCheck = std::function<void(const Backlog&)>;
 
 struct Job {
   int64_t id = 0;
@@ -73,14 +89,16 @@ struct SweepRow {
 
 class JobQueue {
  public:
-  // Opens its own connections to a file the run store has already migrated (RunStore's constructor).
+  // Opens its own connections to a run store (RunStore's constructor made it) and creates or migrates the
+  // service's tables in it.
   explicit JobQueue(const std::filesystem::path& db_file);
   ~JobQueue();
   JobQueue(const JobQueue&) = delete;
   JobQueue& operator=(const JobQueue&) = delete;
 
   // A new queued job, or, when `key` names an existing job, that job (second = false) and nothing written.
-  std::pair<Job, bool> submit(const JobSpec& spec, const std::optional<std::string>& key);
+  std::pair<Job, bool> submit(const JobSpec& spec, const std::optional<std::string>& key,
+                              const BudgetCheck& budget = nullptr);
   // A sweep and its jobs in one transaction; with an existing key, the original sweep (second = false).
   // With `launched_runs_dir` (a sweep handed to an MPI launcher, sweep_launcher.hpp) the jobs start `running`
   // (attempt 1, out_dir DIR/sweep-<id>/runs/<sweep>/<variant>, where `runout sweep --out DIR/sweep-<id>/runs`
@@ -88,7 +106,11 @@ class JobQueue {
   std::pair<SweepRow, bool> submit_sweep(const std::string& name, std::optional<int64_t> scene_id,
                                          const std::string& fidelity, const std::vector<JobSpec>& jobs,
                                          const std::optional<std::string>& key,
-                                         const std::optional<std::string>& launched_runs_dir = std::nullopt);
+                                         const std::optional<std::string>& launched_runs_dir = std::nullopt,
+                                         const BudgetCheck& budget = nullptr);
+  // The backlog of `submitter` and of all, from a connection of its own (GET /health: never behind a writer
+  // or a long list). counts_by_status likewise.
+  Backlog backlog(const std::string& submitter) const;
 
   std::optional<Job> get(int64_t id) const;
   // Without scene_json, by id; status and sweep filter when given.

@@ -326,10 +326,14 @@ int cmd_serve(runout::service::ServeOptions opt, const std::string& token_file, 
       spdlog::error("serve: cannot read the token file {}", token_file);
       return 2;
     }
-    std::ostringstream s;
-    s << in.rdbuf();
-    opt.token = s.str();
-    while (!opt.token.empty() && std::isspace(static_cast<unsigned char>(opt.token.back()))) opt.token.pop_back();
+    // One token per line (each with its own work budget); surrounding whitespace and empty lines dropped.
+    for (std::string line; std::getline(in, line);) {
+      while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back()))) line.pop_back();
+      while (!line.empty() && std::isspace(static_cast<unsigned char>(line.front()))) line.erase(0, 1);
+      if (line.empty()) continue;
+      if (opt.token.empty()) opt.token = line;
+      else opt.tokens.push_back(line);
+    }
     if (opt.token.empty()) {
       spdlog::error("serve: the token file {} is empty", token_file);
       return 2;
@@ -371,6 +375,76 @@ int cmd_serve(runout::service::ServeOptions opt, const std::string& token_file, 
   }
   spdlog::info("serve: stopped");
   return 0;
+}
+
+// `runout serve`'s options (docs/service.md).
+struct ServeArgs {
+  runout::service::ServeOptions opt;
+  std::string token_file, db = "runout.db", runs = "runs", scene_dir = ".", web_root;
+  bool verbose = false;
+};
+
+CLI::App* add_serve_command(CLI::App& app, ServeArgs& a) {
+  auto& serve_opt = a.opt;
+  auto& token_file = a.token_file;
+  auto& serve_db = a.db;
+  auto& serve_runs = a.runs;
+  auto& scene_dir = a.scene_dir;
+  auto& verbose = a.verbose;
+  auto* serve = app.add_subcommand("serve", "Run the HTTP service: a job queue and the run store over a JSON API");
+  serve->add_option("--host", serve_opt.host, "Address to bind (loopback by default)")->capture_default_str();
+  serve->add_option("--port", serve_opt.port, "Port (0: any free port, printed on stdout)")
+      ->check(CLI::Range(0, 65535))
+      ->capture_default_str();
+  serve->add_option("--db", serve_db, "Run store and job queue (SQLite)")->capture_default_str();
+  serve->add_option("--workers", serve_opt.workers, "Jobs run at once (0: queue only)")
+      ->check(CLI::Range(0, 64))
+      ->capture_default_str();
+  serve->add_option("--threads-per-job", serve_opt.threads_per_job, "OpenMP threads per job (0: cores / workers)")
+      ->check(CLI::Range(0, 1024));
+  serve->add_option("--token-file", token_file, "File holding the bearer token that writes need, or several, one per line (else env RUNOUT_TOKEN)");
+  serve->add_option("--max-body", serve_opt.max_body, "Largest request body in bytes")
+      ->check(CLI::Range(static_cast<size_t>(1024), static_cast<size_t>(1) << 30))
+      ->capture_default_str();
+  serve->add_option("--particle-budget", serve_opt.particle_budget, "Most particles a job may have")
+      ->check(CLI::Range(static_cast<int64_t>(100), static_cast<int64_t>(200'000'000)))
+      ->capture_default_str();
+  serve->add_option("--header-timeout", serve_opt.header_timeout,
+                    "Seconds for a whole request head, however slowly it arrives (408 after)")
+      ->check(CLI::Range(0.1, 3600.0))
+      ->capture_default_str();
+  serve->add_option("--body-timeout", serve_opt.body_timeout, "Seconds for a whole request body (408 after)")
+      ->check(CLI::Range(0.1, 3600.0))
+      ->capture_default_str();
+  serve->add_option("--idle-timeout", serve_opt.idle_timeout, "Seconds a kept-alive connection waits for a request")
+      ->check(CLI::Range(0.1, 3600.0))
+      ->capture_default_str();
+  serve->add_option("--max-connections", serve_opt.max_connections, "Open connections in all (503 above)")
+      ->check(CLI::Range(4, 100000))
+      ->capture_default_str();
+  serve->add_option("--max-connections-per-client", serve_opt.max_connections_per_client,
+                    "Open connections of one client address (429 above)")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  serve->add_option("--http-threads", serve_opt.http_threads, "Threads that run API requests (health has its own)")
+      ->check(CLI::Range(2, 256))
+      ->capture_default_str();
+  serve->add_option("--budget-token-cpu-s", serve_opt.budget_token_cpu_s,
+                    "Most predicted CPU-seconds queued or running per token (0: no limit; 429 above)")
+      ->check(CLI::Range(0.0, 1e12))
+      ->capture_default_str();
+  serve->add_option("--budget-total-cpu-s", serve_opt.budget_total_cpu_s,
+                    "Most predicted CPU-seconds queued or running in all (0: no limit; 429 above)")
+      ->check(CLI::Range(0.0, 1e12))
+      ->capture_default_str();
+  serve->add_option("--runs", serve_runs, "Job outputs go to RUNS/service/job-<id>")->capture_default_str();
+  serve->add_option("--scene-dir", scene_dir, "Relative file names in submitted scenes (terrain.dem) resolve here")
+      ->capture_default_str();
+  serve->add_flag("--verbose,-v", verbose, "Log every request (method, path, status, time)");
+  serve->add_option("--web-root", a.web_root,
+                    "The web page's files, served at / and /web/ (default: webroot/ next to this binary, where the "
+                    "build puts it)");
+  return serve;
 }
 
 }  // namespace
@@ -427,35 +501,8 @@ int main(int argc, char** argv) {
   compare->add_flag("--all", all_rows, "Also rows that are the same in every run");
   compare->add_option("--db", db_file, "Run store (SQLite)")->capture_default_str();
 
-  runout::service::ServeOptions serve_opt;
-  std::string token_file, serve_db = "runout.db", serve_runs = "runs", scene_dir = ".";
-  bool verbose = false;
-  auto* serve = app.add_subcommand("serve", "Run the HTTP service: a job queue and the run store over a JSON API");
-  serve->add_option("--host", serve_opt.host, "Address to bind (loopback by default)")->capture_default_str();
-  serve->add_option("--port", serve_opt.port, "Port (0: any free port, printed on stdout)")
-      ->check(CLI::Range(0, 65535))
-      ->capture_default_str();
-  serve->add_option("--db", serve_db, "Run store and job queue (SQLite)")->capture_default_str();
-  serve->add_option("--workers", serve_opt.workers, "Jobs run at once (0: queue only)")
-      ->check(CLI::Range(0, 64))
-      ->capture_default_str();
-  serve->add_option("--threads-per-job", serve_opt.threads_per_job, "OpenMP threads per job (0: cores / workers)")
-      ->check(CLI::Range(0, 1024));
-  serve->add_option("--token-file", token_file, "File holding the bearer token that writes need (else env RUNOUT_TOKEN)");
-  serve->add_option("--max-body", serve_opt.max_body, "Largest request body in bytes")
-      ->check(CLI::Range(static_cast<size_t>(1024), static_cast<size_t>(1) << 30))
-      ->capture_default_str();
-  serve->add_option("--particle-budget", serve_opt.particle_budget, "Most particles a job may have")
-      ->check(CLI::Range(static_cast<int64_t>(100), static_cast<int64_t>(200'000'000)))
-      ->capture_default_str();
-  serve->add_option("--runs", serve_runs, "Job outputs go to RUNS/service/job-<id>")->capture_default_str();
-  serve->add_option("--scene-dir", scene_dir, "Relative file names in submitted scenes (terrain.dem) resolve here")
-      ->capture_default_str();
-  serve->add_flag("--verbose,-v", verbose, "Log every request (method, path, status, time)");
-  std::string web_root;
-  serve->add_option("--web-root", web_root,
-                    "The web page's files, served at / and /web/ (default: webroot/ next to this binary, where the "
-                    "build puts it)");
+  ServeArgs serve_args;
+  auto* serve = add_serve_command(app, serve_args);
 
   runout::service::TradeoffCommand tradeoff_cmd;
   auto* tradeoff = app.add_subcommand(
@@ -490,11 +537,12 @@ int main(int argc, char** argv) {
   }
   if (calibrate->parsed()) return runout::service::run_calibrate_command(calibrate_cmd);
   if (serve->parsed()) {
-    serve_opt.db = serve_db;
-    serve_opt.runs_dir = serve_runs;
-    serve_opt.scene_dir = scene_dir;
-    serve_opt.web_root = !web_root.empty() ? std::filesystem::path(web_root) : default_web_root(argv[0]);
-    return cmd_serve(serve_opt, token_file, verbose);
+    auto& o = serve_args.opt;
+    o.db = serve_args.db;
+    o.runs_dir = serve_args.runs;
+    o.scene_dir = serve_args.scene_dir;
+    o.web_root = !serve_args.web_root.empty() ? std::filesystem::path(serve_args.web_root) : default_web_root(argv[0]);
+    return cmd_serve(o, serve_args.token_file, serve_args.verbose);
   }
   if (run->parsed()) return cmd_run(scene_path, out_dir, snapshots, threads, quiet, no_db ? "" : db_file);
   if (sweep->parsed()) return cmd_sweep(sweep_path, fidelity, dp, jobs, threads, db_file, sweep_out, !no_compare, heartbeat_timeout);

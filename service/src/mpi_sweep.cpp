@@ -333,133 +333,152 @@ int run_worker(MpiWorld& world, const MpiSweepOptions& options, const std::atomi
 // ---------------------------------------------------------------------------------------------------------
 // Coordinator (rank 0)
 
-SweepResult coordinate_sweep(MpiWorld& world, RunStore& store, const Sweep& sweep, const SweepOptions& options,
-                             const MpiSweepOptions& mpi_options) {
-  const Fidelity fidelity = options.fidelity_override ? options.fidelity : sweep.fidelity;
-  const size_t n = sweep.variants.size();
-  // The same base folder and output folders as run_sweep: every rank starts in the same working directory
-  // (mpirun and srun see to that), so relative paths mean the same on every rank.
-  const fs::path base_dir = sweep.base_path.parent_path();
-  SweepResult result;
-  result.runs.resize(n);
-  for (const auto& v : sweep.variants) result.variants.push_back(v.name);
-  for (auto& r : result.runs) r.status = "not run";
-  auto emit = [&](const SweepEvent& e) {
-    if (options.on_event) options.on_event(e);
-  };
+namespace {
 
+// Rank 0's side of a distributed sweep: hands runs out largest predicted cost first, stores each result once,
+// gives a silent worker's run to another, and runs what is left itself when no worker remains. One method
+// per step of the loop in run().
+class Coordinator {
+ public:
+  Coordinator(MpiWorld& world, RunStore& store, const Sweep& sweep, const SweepOptions& options,
+              const MpiSweepOptions& mpi_options)
+      : world_(world),
+        store_(store),
+        sweep_(sweep),
+        options_(options),
+        mpi_(mpi_options),
+        fidelity_(options.fidelity_override ? options.fidelity : sweep.fidelity),
+        n_(sweep.variants.size()),
+        // The same base folder and output folders as run_sweep: every rank starts in the same working
+        // directory (mpirun and srun see to that), so relative paths mean the same on every rank.
+        base_dir_(sweep.base_path.parent_path()),
+        tasks_(n_),
+        finished_(n_, false),
+        workers_(static_cast<size_t>(world.size())) {
+    result_.runs.resize(n_);
+    for (const auto& v : sweep.variants) result_.variants.push_back(v.name);
+    for (auto& r : result_.runs) r.status = "not run";
+    workers_[0].alive = false;  // rank 0 coordinates
+  }
+
+  SweepResult run() {
+    prepare();
+    while (!pending_.empty() || busy_count() > 0) {
+      bool did = false;
+      check_stop();
+      did = hand_out() || did;
+      did = receive() || did;
+      did = drop_silent_workers() || did;
+      did = run_locally() || did;
+      ping_idle();
+      out_.progress();
+      if (!did) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    shutdown_workers();
+    return result_;
+  }
+
+ private:
   struct Task {
     std::string scene;
     Manifest manifest;
     double cost = 0;
   };
-  std::vector<Task> tasks(n);
-  std::vector<bool> finished(n, false);
-  std::vector<size_t> todo;
-  for (size_t k = 0; k < n; ++k) {
-    const SweepVariant& v = sweep.variants[k];
-    try {
-      tasks[k].scene = resolve_variant(sweep.base_json, v, fidelity);
-      tasks[k].manifest = make_manifest(tasks[k].scene, base_dir, fidelity);
-      if (auto stored = find_completed_run(store, tasks[k].manifest.hash)) {  // resume: not run again
-        emit({SweepEvent::started, v.name, k, n, {}, {}});
-        result.runs[k] = *stored;
-        finished[k] = true;
-        emit({SweepEvent::finished, v.name, k, n, {}, *stored});
-        continue;
-      }
-      tasks[k].cost = service::predicted_run_cost(tasks[k].scene, base_dir);
-      todo.push_back(k);
-    } catch (const std::exception& e) {  // as run_sweep: reported failed, not stored
-      StoredRun r;
-      r.status = "failed";
-      r.error = e.what();
-      result.runs[k] = r;
-      finished[k] = true;
-      emit({SweepEvent::finished, v.name, k, n, {}, r});
-    }
-  }
-  // Largest predicted cost first, so that the longest run does not start last and hold up the end.
-  std::stable_sort(todo.begin(), todo.end(), [&](size_t a, size_t b) { return tasks[a].cost > tasks[b].cost; });
-  std::deque<size_t> pending(todo.begin(), todo.end());
-  {
-    std::string order;
-    for (size_t k : todo) order += (order.empty() ? "" : ", ") + sweep.variants[k].name;
-    spdlog::info("sweep {}: {} of {} runs to do on {} worker rank(s), largest predicted cost first: {}", sweep.name,
-                 todo.size(), n, world.size() - 1, order.empty() ? "none" : order);
-  }
-
   struct Worker {
     bool alive = true;
     std::optional<size_t> task;
     Clock::time_point last_heard = Clock::now(), last_ping = Clock::now();
   };
-  std::vector<Worker> workers(static_cast<size_t>(world.size()));
-  workers[0].alive = false;  // rank 0 coordinates
-  Outbox out;
-  bool stopping = false;
 
-  auto store_result = [&](size_t k, const json& msg) {
-    StoredRun r;
-    r.status = msg.at("status").get<std::string>();
-    r.error = msg.at("error").get<std::string>();
-    r.wall_seconds = msg.at("wall_seconds").get<double>();
-    if (!msg.at("record").is_null()) {
-      const RunStore::RunRecord record = record_from_json(msg.at("record"));
-      if (record.manifest_hash != tasks[k].manifest.hash)
-        throw std::runtime_error("the worker's record of " + sweep.variants[k].name + " has another manifest hash");
-      r.run_id = store.put_run(record);
+  void emit(const SweepEvent& e) const {
+    if (options_.on_event) options_.on_event(e);
+  }
+  long busy_count() const {
+    return std::count_if(workers_.begin(), workers_.end(), [](const Worker& w) { return w.alive && w.task; });
+  }
+  bool any_alive() const {
+    return std::any_of(workers_.begin(), workers_.end(), [](const Worker& w) { return w.alive; });
+  }
+
+  // Resolves every layout, takes the stored ones as done (resume), and orders the rest by predicted cost.
+  void prepare() {
+    std::vector<size_t> todo;
+    for (size_t k = 0; k < n_; ++k) {
+      const SweepVariant& v = sweep_.variants[k];
+      try {
+        tasks_[k].scene = resolve_variant(sweep_.base_json, v, fidelity_);
+        tasks_[k].manifest = make_manifest(tasks_[k].scene, base_dir_, fidelity_);
+        if (auto stored = find_completed_run(store_, tasks_[k].manifest.hash)) {  // resume: not run again
+          emit({SweepEvent::started, v.name, k, n_, {}, {}});
+          result_.runs[k] = *stored;
+          finished_[k] = true;
+          emit({SweepEvent::finished, v.name, k, n_, {}, *stored});
+          continue;
+        }
+        tasks_[k].cost = service::predicted_run_cost(tasks_[k].scene, base_dir_);
+        todo.push_back(k);
+      } catch (const std::exception& e) {  // as run_sweep: reported failed, not stored
+        StoredRun r;
+        r.status = "failed";
+        r.error = e.what();
+        result_.runs[k] = r;
+        finished_[k] = true;
+        emit({SweepEvent::finished, v.name, k, n_, {}, r});
+      }
     }
-    return r;
-  };
-  auto finish_task = [&](size_t k, const StoredRun& r) {
-    finished[k] = true;
-    result.runs[k] = r;
-    pending.erase(std::remove(pending.begin(), pending.end(), k), pending.end());
-    emit({SweepEvent::finished, sweep.variants[k].name, k, n, {}, r});
-  };
-  auto busy_count = [&] {
-    return std::count_if(workers.begin(), workers.end(), [](const Worker& w) { return w.alive && w.task; });
-  };
-  auto any_alive = [&] { return std::any_of(workers.begin(), workers.end(), [](const Worker& w) { return w.alive; }); };
+    // Largest predicted cost first, so that the longest run does not start last and hold up the end.
+    std::stable_sort(todo.begin(), todo.end(), [&](size_t a, size_t b) { return tasks_[a].cost > tasks_[b].cost; });
+    pending_.assign(todo.begin(), todo.end());
+    std::string order;
+    for (size_t k : todo) order += (order.empty() ? "" : ", ") + sweep_.variants[k].name;
+    spdlog::info("sweep {}: {} of {} runs to do on {} worker rank(s), largest predicted cost first: {}", sweep_.name,
+                 todo.size(), n_, world_.size() - 1, order.empty() ? "none" : order);
+  }
 
-  while (!pending.empty() || busy_count() > 0) {
+  // Ctrl-C: no new runs; the running ones stop within a step and come back as "stopped".
+  void check_stop() {
+    if (!options_.stop || !options_.stop->load() || stopping_) return;
+    stopping_ = true;
+    pending_.clear();
+    for (size_t w = 1; w < workers_.size(); ++w)
+      if (workers_[w].alive && workers_[w].task) out_.send(static_cast<int>(w), kStopRun, "{}");
+  }
+
+  // Hands out runs to idle workers.
+  bool hand_out() {
     bool did = false;
-    if (options.stop && options.stop->load() && !stopping) {
-      // Ctrl-C: no new runs; the running ones stop within a step and come back as "stopped".
-      stopping = true;
-      pending.clear();
-      for (size_t w = 1; w < workers.size(); ++w)
-        if (workers[w].alive && workers[w].task) out.send(static_cast<int>(w), kStopRun, "{}");
-    }
-    // Hand out runs to idle workers.
-    for (size_t w = 1; w < workers.size() && !pending.empty() && !stopping; ++w) {
-      if (!workers[w].alive || workers[w].task) continue;
-      const size_t k = pending.front();
-      pending.pop_front();
-      const SweepVariant& v = sweep.variants[k];
+    for (size_t w = 1; w < workers_.size() && !pending_.empty() && !stopping_; ++w) {
+      if (!workers_[w].alive || workers_[w].task) continue;
+      const size_t k = pending_.front();
+      pending_.pop_front();
+      const SweepVariant& v = sweep_.variants[k];
       const json task = {{"index", k},
-                         {"sweep", sweep.name},
+                         {"sweep", sweep_.name},
                          {"variant", v.name},
-                         {"fidelity", fidelity.name},
-                         {"dp", fidelity.dp ? json(*fidelity.dp) : json(nullptr)},
-                         {"scene", tasks[k].scene},
-                         {"base_dir", base_dir.string()},
-                         {"out_dir", (options.out_root / sweep.name / v.name).string()},
-                         {"manifest_hash", tasks[k].manifest.hash},
-                         {"manifest_json", tasks[k].manifest.json}};
-      out.send(static_cast<int>(w), kTask, dump(task));
-      workers[w].task = k;
-      workers[w].last_heard = Clock::now();  // the clock of its silence starts now
+                         {"fidelity", fidelity_.name},
+                         {"dp", fidelity_.dp ? json(*fidelity_.dp) : json(nullptr)},
+                         {"scene", tasks_[k].scene},
+                         {"base_dir", base_dir_.string()},
+                         {"out_dir", (options_.out_root / sweep_.name / v.name).string()},
+                         {"manifest_hash", tasks_[k].manifest.hash},
+                         {"manifest_json", tasks_[k].manifest.json}};
+      out_.send(static_cast<int>(w), kTask, dump(task));
+      workers_[w].task = k;
+      workers_[w].last_heard = Clock::now();  // the clock of its silence starts now
       spdlog::info("{} -> rank {}", v.name, w);
-      emit({SweepEvent::started, v.name, k, n, {}, {}});
+      emit({SweepEvent::started, v.name, k, n_, {}, {}});
       did = true;
     }
-    // Messages from the workers.
+    return did;
+  }
+
+  // Messages from the workers: heartbeats (progress) and results.
+  bool receive() {
+    bool did = false;
     while (auto m = try_receive(MPI_ANY_SOURCE, MPI_ANY_TAG)) {
       did = true;
-      if (m->source <= 0 || m->source >= world.size()) continue;
-      Worker& w = workers[static_cast<size_t>(m->source)];
+      if (m->source <= 0 || m->source >= world_.size()) continue;
+      Worker& w = workers_[static_cast<size_t>(m->source)];
       w.last_heard = Clock::now();
       if (!w.alive && m->tag == kResult) {
         // Declared lost after a silence, yet here it is: it was slow, not dead. Take its result and its work.
@@ -471,102 +490,160 @@ SweepResult coordinate_sweep(MpiWorld& world, RunStore& store, const Sweep& swee
         spdlog::error("rank {}: unreadable message (tag {})", m->source, m->tag);
         continue;
       }
-      if (m->tag == kHeartbeat) {
-        const int64_t k = msg.value("index", int64_t{-1});
-        if (w.alive && w.task && k == static_cast<int64_t>(*w.task) && msg.contains("time")) {
-          SweepEvent e{SweepEvent::progress, sweep.variants[*w.task].name, *w.task, n, {}, {}};
-          e.progress_info.time = msg.value("time", 0.0);
-          e.progress_info.duration = msg.value("duration", 0.0);
-          e.progress_info.steps = msg.value("steps", 0L);
-          e.progress_info.wall_seconds = msg.value("wall_seconds", 0.0);
-          e.progress_info.particles = msg.value("particles", size_t{0});
-          emit(e);
-        }
-      } else if (m->tag == kResult) {
-        const size_t k = msg.at("index").get<size_t>();
-        if (w.task == k) w.task.reset();
-        if (k >= n) continue;
-        if (finished[k]) {
-          // Its run was given to another worker after a silence and that one finished it first.
-          spdlog::warn("{}: a second result (rank {}) after the run was stored: dropped", sweep.variants[k].name,
-                       m->source);
-          continue;
-        }
-        StoredRun r;
-        try {
-          r = store_result(k, msg);
-        } catch (const std::exception& e) {
-          r.status = "failed";
-          r.error = std::string("could not store the run: ") + e.what();
-        }
-        finish_task(k, r);
-      }
+      if (m->tag == kHeartbeat) on_heartbeat(w, msg);
+      else if (m->tag == kResult) on_result(w, m->source, msg);
     }
-    // Workers not heard from within the timeout are lost; their run goes back to the front of the queue.
-    for (size_t w = 1; w < workers.size(); ++w) {
-      Worker& wk = workers[w];
-      if (!wk.alive || seconds_since(wk.last_heard) <= mpi_options.heartbeat_timeout) continue;
+    return did;
+  }
+
+  void on_heartbeat(const Worker& w, const json& msg) const {
+    const int64_t k = msg.value("index", int64_t{-1});
+    if (!w.alive || !w.task || k != static_cast<int64_t>(*w.task) || !msg.contains("time")) return;
+    SweepEvent e{SweepEvent::progress, sweep_.variants[*w.task].name, *w.task, n_, {}, {}};
+    e.progress_info.time = msg.value("time", 0.0);
+    e.progress_info.duration = msg.value("duration", 0.0);
+    e.progress_info.steps = msg.value("steps", 0L);
+    e.progress_info.wall_seconds = msg.value("wall_seconds", 0.0);
+    e.progress_info.particles = msg.value("particles", size_t{0});
+    emit(e);
+  }
+
+  void on_result(Worker& w, int source, const json& msg) {
+    const size_t k = msg.at("index").get<size_t>();
+    if (w.task == k) w.task.reset();
+    if (k >= n_) return;
+    if (finished_[k]) {
+      // Its run was given to another worker after a silence and that one finished it first.
+      spdlog::warn("{}: a second result (rank {}) after the run was stored: dropped", sweep_.variants[k].name, source);
+      return;
+    }
+    StoredRun r;
+    try {
+      r = store_result(k, msg);
+    } catch (const std::exception& e) {
+      r.status = "failed";
+      r.error = std::string("could not store the run: ") + e.what();
+    }
+    finish_task(k, r);
+  }
+
+  StoredRun store_result(size_t k, const json& msg) {
+    StoredRun r;
+    r.status = msg.at("status").get<std::string>();
+    r.error = msg.at("error").get<std::string>();
+    r.wall_seconds = msg.at("wall_seconds").get<double>();
+    if (!msg.at("record").is_null()) {
+      const RunStore::RunRecord record = record_from_json(msg.at("record"));
+      if (record.manifest_hash != tasks_[k].manifest.hash)
+        throw std::runtime_error("the worker's record of " + sweep_.variants[k].name + " has another manifest hash");
+      r.run_id = store_.put_run(record);
+    }
+    return r;
+  }
+
+  void finish_task(size_t k, const StoredRun& r) {
+    finished_[k] = true;
+    result_.runs[k] = r;
+    pending_.erase(std::remove(pending_.begin(), pending_.end(), k), pending_.end());
+    emit({SweepEvent::finished, sweep_.variants[k].name, k, n_, {}, r});
+  }
+
+  // Workers not heard from within the timeout are lost; their run goes back to the front of the queue.
+  bool drop_silent_workers() {
+    bool did = false;
+    for (size_t w = 1; w < workers_.size(); ++w) {
+      Worker& wk = workers_[w];
+      if (!wk.alive || seconds_since(wk.last_heard) <= mpi_.heartbeat_timeout) continue;
       wk.alive = false;
-      world.set_peer_lost();
+      world_.set_peer_lost();
       if (wk.task) {
         const size_t k = *wk.task;
         wk.task.reset();
         spdlog::warn("rank {} silent for {:.0f} s (dead or hung): its run {} goes back to the queue", w,
-                     seconds_since(wk.last_heard), sweep.variants[k].name);
-        if (!finished[k] && !stopping) pending.push_front(k);
+                     seconds_since(wk.last_heard), sweep_.variants[k].name);
+        if (!finished_[k] && !stopping_) pending_.push_front(k);
       } else {
         spdlog::warn("rank {} silent for {:.0f} s (dead or hung): no more runs for it", w, seconds_since(wk.last_heard));
       }
       did = true;
     }
-    // Every worker lost: rank 0 runs what is left itself.
-    if (!any_alive() && !pending.empty() && !stopping) {
-      const size_t k = pending.front();
-      pending.pop_front();
-      const SweepVariant& v = sweep.variants[k];
-      spdlog::warn("no worker left: rank 0 runs {} itself", v.name);
-      emit({SweepEvent::started, v.name, k, n, {}, {}});
-      StoreRunOptions o;
-      o.sweep = sweep.name;
-      o.variant = v.name;
-      o.fidelity = fidelity;
-      o.run.out_dir = options.out_root / sweep.name / v.name;
-      o.run.threads = mpi_options.threads > 0 ? mpi_options.threads : world.default_threads();
-      o.run.stop = options.stop;
-      StoredRun r;
-      try {
-        const RunStore::RunRecord record = execute_run(tasks[k].scene, tasks[k].manifest, base_dir, o, r);
-        r.run_id = store.put_run(record);
-      } catch (const std::exception& e) {
-        r.status = "failed";
-        r.error = e.what();
-      }
-      finish_task(k, r);
-      did = true;
+    return did;
+  }
+
+  // Every worker lost: rank 0 runs what is left itself, one run per pass of the loop.
+  bool run_locally() {
+    if (any_alive() || pending_.empty() || stopping_) return false;
+    const size_t k = pending_.front();
+    pending_.pop_front();
+    const SweepVariant& v = sweep_.variants[k];
+    spdlog::warn("no worker left: rank 0 runs {} itself", v.name);
+    emit({SweepEvent::started, v.name, k, n_, {}, {}});
+    StoreRunOptions o;
+    o.sweep = sweep_.name;
+    o.variant = v.name;
+    o.fidelity = fidelity_;
+    o.run.out_dir = options_.out_root / sweep_.name / v.name;
+    o.run.threads = mpi_.threads > 0 ? mpi_.threads : world_.default_threads();
+    o.run.stop = options_.stop;
+    StoredRun r;
+    try {
+      const RunStore::RunRecord record = execute_run(tasks_[k].scene, tasks_[k].manifest, base_dir_, o, r);
+      r.run_id = store_.put_run(record);
+    } catch (const std::exception& e) {
+      r.status = "failed";
+      r.error = e.what();
     }
-    // Idle workers hear from rank 0 every second, so that they notice when it is gone.
-    for (size_t w = 1; w < workers.size(); ++w)
-      if (workers[w].alive && !workers[w].task && seconds_since(workers[w].last_ping) > 1.0) {
-        out.send(static_cast<int>(w), kPing, "{}");
-        workers[w].last_ping = Clock::now();
+    finish_task(k, r);
+    return true;
+  }
+
+  // Idle workers hear from rank 0 every second, so that they notice when it is gone.
+  void ping_idle() {
+    for (size_t w = 1; w < workers_.size(); ++w)
+      if (workers_[w].alive && !workers_[w].task && seconds_since(workers_[w].last_ping) > 1.0) {
+        out_.send(static_cast<int>(w), kPing, "{}");
+        workers_[w].last_ping = Clock::now();
       }
-    out.progress();
-    if (!did) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
 
   // Done: every worker may exit (a lost one too, in case it was only slow; its send is never waited for).
   // With a worker lost, rank 0 ends without MPI_Finalize, and tells the others to do the same.
-  std::vector<bool> alive(workers.size());
-  const std::string shutdown = world.peer_lost() ? R"({"peer_lost": true})" : "{}";
-  for (size_t w = 1; w < workers.size(); ++w) {
-    alive[w] = workers[w].alive;
-    out.send(static_cast<int>(w), kShutdown, shutdown, /*synchronous=*/true);
+  void shutdown_workers() {
+    std::vector<bool> alive(workers_.size());
+    const std::string shutdown = world_.peer_lost() ? R"({"peer_lost": true})" : "{}";
+    for (size_t w = 1; w < workers_.size(); ++w) {
+      alive[w] = workers_[w].alive;
+      out_.send(static_cast<int>(w), kShutdown, shutdown, /*synchronous=*/true);
+    }
+    if (!out_.drain(alive, mpi_.heartbeat_timeout)) {
+      spdlog::warn("some worker did not take its shutdown message");
+      world_.set_peer_lost();
+    }
   }
-  if (!out.drain(alive, mpi_options.heartbeat_timeout)) {
-    spdlog::warn("some worker did not take its shutdown message");
-    world.set_peer_lost();
-  }
-  return result;
+
+  MpiWorld& world_;
+  RunStore& store_;
+  const Sweep& sweep_;
+  const SweepOptions& options_;
+  const MpiSweepOptions& mpi_;
+  const Fidelity fidelity_;
+  const size_t n_;
+  const fs::path base_dir_;
+  SweepResult result_;
+  std::vector<Task> tasks_;
+  std::vector<bool> finished_;
+  std::deque<size_t> pending_;
+  std::vector<Worker> workers_;
+  Outbox out_;
+  bool stopping_ = false;
+};
+
+}  // namespace
+
+SweepResult coordinate_sweep(MpiWorld& world, RunStore& store, const Sweep& sweep, const SweepOptions& options,
+                             const MpiSweepOptions& mpi_options) {
+  return Coordinator(world, store, sweep, options, mpi_options).run();
 }
+
 
 }  // namespace runout::cluster

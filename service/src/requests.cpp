@@ -26,6 +26,7 @@ constexpr size_t kMaxVariants = 1024;
 json parse_body(const std::string& body) {
   if (body.find_first_not_of(" \t\r\n") == std::string::npos)
     throw ApiError(400, "(body)", "empty body (accepted: a JSON object)");
+  check_json_depth(body, "(body)");
   try {
     json j = json::parse(body);
     if (!j.is_object()) throw ApiError(422, "(body)", "must be a JSON object");
@@ -198,10 +199,29 @@ void record_built_scene(const Scene& s, JobSpec& spec) {
   spec.dimensions = s.dimensions;
 }
 
+// The files a scene names must be inside the scene directory after every symbolic link is followed (the
+// lexical check of check_resolvable is not enough: a link inside the directory may point anywhere).
+void check_contained(const json& scene, const std::string& path, const Limits& limits) {
+  if (!scene.contains("terrain") || !scene["terrain"].is_object() || !scene["terrain"].contains("dem") ||
+      !scene["terrain"]["dem"].is_string())
+    return;
+  namespace fs = std::filesystem;
+  const std::string field = at(path, "terrain.dem");
+  const std::string dem = scene["terrain"]["dem"].get<std::string>();
+  std::error_code ec;
+  const fs::path root = fs::weakly_canonical(fs::absolute(limits.scene_dir.empty() ? fs::path(".") : limits.scene_dir), ec);
+  const fs::path file = ec ? fs::path() : fs::weakly_canonical(root / dem, ec);
+  const fs::path rel = file.lexically_relative(root);
+  if (ec || rel.empty() || *rel.begin() == ".." || rel == ".")
+    throw ApiError(422, field, "'" + dem.substr(0, 80) + "' resolves outside the service's scene directory (symbolic "
+                               "links followed) (accepted: a file inside --scene-dir)");
+}
+
 // Validates a resolved scene with the scene validator, under the particle budget; the built scene's particle
 // counts and numerics go into `spec`.
 void validate_resolved(const std::string& resolved, const std::string& path, const Limits& limits, JobSpec& spec) {
   json j = json::parse(resolved);
+  check_contained(j, path, limits);
   long own = 5'000'000;
   bool injectable = !j.contains("limits");
   if (j.contains("limits") && j["limits"].is_object()) {
@@ -296,6 +316,26 @@ Base base_of(const json& body, const char* inline_key, const JobQueue& queue) {
 }
 
 }  // namespace
+
+void check_json_depth(const std::string& body, const std::string& field) {
+  int depth = 0;
+  bool in_string = false, escaped = false;
+  for (const char c : body) {
+    if (in_string) {
+      if (escaped) escaped = false;
+      else if (c == '\\') escaped = true;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxJsonDepth)
+        throw ApiError(422, field, "arrays and objects nest deeper than " + std::to_string(kMaxJsonDepth) +
+                                       " levels (accepted: at most " + std::to_string(kMaxJsonDepth) + ")");
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+}
 
 void check_idempotency_key(const std::string& key, const std::string& field) {
   const bool ok = !key.empty() && key.size() <= 200 &&

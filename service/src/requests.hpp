@@ -8,6 +8,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "jobs.hpp"
@@ -18,9 +19,16 @@ namespace runout::service {
 struct ApiError : std::runtime_error {
   int status;
   std::string field;
+  std::vector<std::pair<std::string, std::string>> headers;  // sent with the error (Retry-After)
+  std::string budget_json;  // a JSON object added to the body as "budget" (429 over the work budget)
   ApiError(int status_code, std::string field_name, const std::string& message)
       : std::runtime_error(message), status(status_code), field(std::move(field_name)) {}
 };
+
+// Arrays and objects may nest at most this deep in a request body (422 beyond); checked on the bytes before
+// the JSON parser is entered, so a deep document never reaches recursive code.
+constexpr int kMaxJsonDepth = 64;
+void check_json_depth(const std::string& body, const std::string& field);
 
 struct Limits {
   int64_t particle_budget = 2'000'000;  // particles (fluid + boundary) a job may have

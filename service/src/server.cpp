@@ -1,593 +1,23 @@
-// The HTTP service (server.hpp, docs/service.md).
-#include "server.hpp"
-
+// The HTTP service (server.hpp, docs/service.md): dispatch, the web page, workers, start and stop. The routes
+// are in routes_<resource>.cpp, Server::Impl and shared helpers in server_impl.hpp.
 #include <fcntl.h>
 #include <sys/file.h>
 #include <unistd.h>
 
 #include <omp.h>
 
-#include <algorithm>
-#include <chrono>
-#include <condition_variable>
-#include <cstdlib>
-#include <cstdio>
-#include <fstream>
-#include <functional>
-#include <map>
-#include <mutex>
-#include <regex>
-#include <set>
-#include <sstream>
-#include <thread>
-#include <vector>
-
-// The project's headers (Eigen) before httplib.h: httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen.
-#include "jobs.hpp"
-#include "runout/scenarios/cost_model.hpp"
-#include "requests.hpp"
-#include "runout/scenarios/store.hpp"
-#include "runout/scenarios/study.hpp"
-#include "runout/terrain/raster.hpp"
-#include "sweep_launcher.hpp"
-#include "web_files.hpp"
-
-#include <httplib.h>
-#include <nlohmann/json.hpp>
-#include <spdlog/spdlog.h>
-
-#ifndef RUNOUT_VERSION
-#define RUNOUT_VERSION "unknown"
-#endif
+#include "server_impl.hpp"
 
 namespace runout::service {
 
-namespace {
-
-using json = nlohmann::json;
-namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
-
-const std::string kPrefix = "/api/v1";
-const std::set<std::string> kStates = {"queued", "running", "done", "failed", "cancelled"};
-
-std::string dump(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
-
-void send_json(httplib::Response& res, int status, const json& j) {
-  res.status = status;
-  res.set_content(dump(j), "application/json");
-}
-
-void send_error(httplib::Response& res, int status, const std::string& field, const std::string& message) {
-  send_json(res, status, {{"error", {{"status", status}, {"field", field}, {"message", message}}}});
-}
-
-json job_json(const Job& j, bool full) {
-  auto or_null = [](const auto& o) -> json { return o ? json(*o) : json(nullptr); };
-  json progress = {{"simulated_time", j.sim_time},
-                   {"duration", j.duration},
-                   {"fraction", j.duration > 0 ? std::min(1.0, j.sim_time / j.duration) : 0.0},
-                   {"steps", j.steps},
-                   {"wall_seconds", j.wall_seconds},
-                   {"eta_seconds", or_null(j.eta_seconds)}};
-  const std::string self = kPrefix + "/jobs/" + std::to_string(j.id);
-  json out = {{"id", j.id},
-              {"status", j.status},
-              {"scene_name", j.scene_name},
-              {"scene_id", or_null(j.scene_id)},
-              {"fidelity", j.fidelity},
-              {"dp", or_null(j.dp)},
-              {"sweep_id", or_null(j.sweep_id)},
-              {"sweep", j.sweep},
-              {"variant", j.variant},
-              {"particles", j.particles},
-              {"progress", progress},
-              {"attempts", j.attempts},
-              {"cancel_requested", j.cancel_requested},
-              {"run_id", or_null(j.run_id)},
-              {"reused_stored_run", j.reused},
-              {"error", j.error},
-              {"created_at", j.created_at},
-              {"started_at", or_null(j.started_at)},
-              {"finished_at", or_null(j.finished_at)},
-              {"updated_at", j.updated_at},
-              {"links", {{"self", self}, {"metrics", self + "/metrics"}}}};
-  if (full) out["scene"] = json::parse(j.scene_json, nullptr, false);
-  return out;
-}
-
-json scene_json(const SceneRow& s, bool full) {
-  json out = {{"id", s.id},
-              {"name", s.name},
-              {"content_hash", s.content_hash},
-              {"structures", json::parse(s.structures_json, nullptr, false)},
-              {"created_at", s.created_at}};
-  if (full) out["scene"] = json::parse(s.scene_json, nullptr, false);
-  return out;
-}
-
-// A positive integer from a query parameter; 400 naming the parameter otherwise.
-int64_t int_param(const std::string& name, const std::string& v, int64_t lo, int64_t hi) {
-  const std::string range = "an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
-  if (v.empty() || v.size() > 18 || !std::all_of(v.begin(), v.end(), [](char c) { return c >= '0' && c <= '9'; }))
-    throw ApiError(400, name, "must be " + range);
-  const int64_t x = std::stoll(v);
-  if (x < lo || x > hi) throw ApiError(400, name, "must be " + range + " (got " + v + ")");
-  return x;
-}
-
-void only_params(const httplib::Request& req, const std::set<std::string>& allowed) {
-  for (const auto& [k, v] : req.params)
-    if (!allowed.count(k)) {
-      std::string list;
-      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-      throw ApiError(400, k, "unknown query parameter (accepted: " + (list.empty() ? std::string("none") : list) + ")");
-    }
-}
-
-bool constant_time_equal(const std::string& a, const std::string& b) {
-  unsigned char diff = a.size() == b.size() ? 0 : 1;
-  for (size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ b[i % std::max<size_t>(b.size(), 1)]);
-  return diff == 0 && a.size() == b.size();
-}
-
-std::string read_file(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-using Handler = std::function<void(const httplib::Request&, httplib::Response&, const std::smatch&)>;
-struct Route {
-  std::string text;
-  std::regex pattern;
-  std::map<std::string, Handler> methods;  // GET, POST, DELETE
-  bool write(const std::string& m) const { return m == "POST" || m == "DELETE"; }
-};
-
-}  // namespace
-
-// ---------------------------------------------------------------------------------------------------------
-
-struct Server::Impl {
-  ServeOptions opt;
-  Limits limits;
-  std::unique_ptr<RunStore> store;  // reads for the HTTP side
-  std::unique_ptr<JobQueue> queue;
-  httplib::Server http;
-  std::vector<Route> routes;
-  std::unique_ptr<WebRoot> web;
-  int lock_fd = -1;
-  int port = 0;
-
-  // Workers.
-  std::vector<std::thread> workers;
-  std::mutex mutex;
-  std::condition_variable wake;
-  bool stopping = false;
-  struct Running {
-    std::atomic<bool> stop{false};
-    std::atomic<bool> cancel{false};
-  };
-  std::map<int64_t, std::shared_ptr<Running>> running;  // job id -> its stop flags (under mutex)
-  std::atomic<int> busy{0};
-  int threads_per_job = 1;
-  std::unique_ptr<SweepLauncher> launcher;  // RUNOUT_SWEEP_LAUNCHER: sweeps go to an MPI launch command
-
-  void add(const std::string& pattern, const std::string& method, Handler h) {
-    const std::string full = "^" + kPrefix + pattern + "$";
-    auto it = std::find_if(routes.begin(), routes.end(), [&](const Route& r) { return r.text == full; });
-    if (it == routes.end()) {
-      routes.push_back(Route{full, std::regex(full), {}});
-      it = routes.end() - 1;
-    }
-    it->methods[method] = std::move(h);
-  }
-
-  static std::string allow_of(const Route& r) {
-    std::string allow;
-    for (const auto& [m, h] : r.methods) {
-      allow += (allow.empty() ? "" : ", ") + m;
-      if (m == "GET") allow += ", HEAD";
-    }
-    return allow + ", OPTIONS";
-  }
-
-  void authorize(const httplib::Request& req) const {
-    if (opt.token.empty()) return;
-    const std::string h = req.get_header_value("Authorization");
-    const std::string prefix = "Bearer ";
-    if (h.size() <= prefix.size() || h.compare(0, prefix.size(), prefix) != 0 ||
-        !constant_time_equal(h.substr(prefix.size()), opt.token))
-      throw ApiError(401, "Authorization", "a write needs the header 'Authorization: Bearer <token>' with the service's token");
-  }
-
-  void check_json_body(const httplib::Request& req) const {
-    const std::string ct = req.get_header_value("Content-Type");
-    if (!ct.empty() && ct.rfind("application/json", 0) != 0)
-      throw ApiError(415, "Content-Type", "must be application/json (got '" + ct.substr(0, 80) + "')");
-  }
-
-  std::optional<std::string> header_key(const httplib::Request& req) const {
-    if (!req.has_header("Idempotency-Key")) return std::nullopt;
-    std::string k = req.get_header_value("Idempotency-Key");
-    check_idempotency_key(k, "Idempotency-Key");
-    return k;
-  }
-
-  std::optional<std::string> pick_key(const std::optional<std::string>& header, const std::optional<std::string>& body) {
-    if (header && body && *header != *body)
-      throw ApiError(422, "idempotency_key", "differs from the Idempotency-Key header (accepted: the same key, or only one)");
-    return header ? header : body;
-  }
-
-  Job require_job(const std::string& id_text) const {
-    const int64_t id = std::stoll(id_text);
-    auto j = queue->get(id);
-    if (!j) throw ApiError(404, "id", "no job with id " + id_text);
-    return *j;
-  }
-
-  // The stored run of a job, for its results (409 while it has none).
-  int64_t run_of(const Job& j) const {
-    if (!j.run_id || (j.status != "done" && j.status != "failed"))
-      throw ApiError(409, "status", "job " + std::to_string(j.id) + " is " + j.status +
-                                        "; results exist once it is done (or failed after running)");
-    return *j.run_id;
-  }
-
-  fs::path out_dir_of(const Job& j) const {
-    if (j.reused && j.run_id)
-      if (auto d = queue->out_dir_of_run(*j.run_id)) return *d;
-    return j.out_dir;
-  }
-
-  void setup_routes();
-  void serve_web(const httplib::Request& req, httplib::Response& res) const;
-  void dispatch(const httplib::Request& req, httplib::Response& res);
-  void worker_loop(int index);
-  void run_job(const Job& job);
-};
-
 void Server::Impl::setup_routes() {
-  add("/health", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
-    only_params(req, {});
-    json counts = queue->counts_by_status();
-    send_json(res, 200,
-              {{"status", "ok"},
-               {"version", RUNOUT_VERSION},
-               {"schema_version", store->schema_version()},
-               {"workers", opt.workers},
-               {"busy_workers", busy.load()},
-               {"threads_per_job", threads_per_job},
-               {"particle_budget", opt.particle_budget},
-               {"auth", opt.token.empty() ? "open" : "bearer token for writes"},
-               {"jobs", counts}});
-  });
-  add("/openapi.json", "GET", [](const httplib::Request&, httplib::Response& res, const std::smatch&) {
-    res.status = 200;
-    res.set_content(openapi_json(), "application/json");
-  });
-
-  // Scenes.
-  add("/scenes", "POST", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
-    only_params(req, {});
-    check_json_body(req);
-    const NewScene s = parse_scene_request(req.body, limits);
-    std::string structures = json(s.structures).dump();
-    auto [row, created] = queue->put_scene(s.name, s.content_hash, s.scene_json, structures);
-    res.set_header("Location", kPrefix + "/scenes/" + std::to_string(row.id));
-    send_json(res, created ? 201 : 200, scene_json(row, false));
-  });
-  add("/scenes", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
-    only_params(req, {});
-    json list = json::array();
-    for (const auto& s : queue->list_scenes()) list.push_back(scene_json(s, false));
-    send_json(res, 200, {{"scenes", list}});
-  });
-  add(R"(/scenes/(\d{1,18}))", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
-    only_params(req, {});
-    auto s = queue->get_scene(std::stoll(m[1].str()));
-    if (!s) throw ApiError(404, "id", "no scene with id " + m[1].str());
-    send_json(res, 200, scene_json(*s, true));
-  });
-
-  // Jobs.
-  add("/jobs", "POST", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
-    only_params(req, {});
-    check_json_body(req);
-    const auto hkey = header_key(req);
-    std::optional<std::string> bkey;
-    const JobSpec spec = parse_job_request(req.body, limits, *queue, bkey);
-    auto [job, created] = queue->submit(spec, pick_key(hkey, bkey));
-    if (created) wake.notify_one();
-    res.set_header("Location", kPrefix + "/jobs/" + std::to_string(job.id));
-    send_json(res, created ? 201 : 200, job_json(job, false));
-  });
-  add("/jobs", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
-    only_params(req, {"status", "sweep", "limit", "offset"});
-    std::optional<std::string> status;
-    std::optional<int64_t> sweep;
-    if (req.has_param("status")) {
-      status = req.get_param_value("status");
-      if (!kStates.count(*status))
-        throw ApiError(400, "status", "unknown status '" + status->substr(0, 40) +
-                                          "' (accepted: queued, running, done, failed, cancelled)");
-    }
-    if (req.has_param("sweep")) {
-      sweep = int_param("sweep", req.get_param_value("sweep"), 1, INT64_MAX / 2);
-      if (!queue->get_sweep(*sweep)) throw ApiError(404, "sweep", "no sweep with id " + std::to_string(*sweep));
-    }
-    const int64_t limit = req.has_param("limit") ? int_param("limit", req.get_param_value("limit"), 1, 10000) : 1000;
-    const int64_t offset = req.has_param("offset") ? int_param("offset", req.get_param_value("offset"), 0, INT64_MAX / 2) : 0;
-    json list = json::array();
-    for (const auto& j : queue->list(status, sweep, limit, offset)) list.push_back(job_json(j, false));
-    send_json(res, 200, {{"total", queue->count(status, sweep)}, {"limit", limit}, {"offset", offset}, {"jobs", list}});
-  });
-  add(R"(/jobs/(\d{1,18}))", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
-    only_params(req, {});
-    send_json(res, 200, job_json(require_job(m[1].str()), true));
-  });
-  add(R"(/jobs/(\d{1,18}))", "DELETE", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
-    only_params(req, {});
-    const int64_t id = std::stoll(m[1].str());
-    auto r = queue->cancel(id);
-    if (!r) throw ApiError(404, "id", "no job with id " + m[1].str());
-    auto [outcome, job] = *r;
-    switch (outcome) {
-      case JobQueue::CancelOutcome::cancelled:
-      case JobQueue::CancelOutcome::already_cancelled:
-        send_json(res, 200, job_json(job, false));
-        return;
-      case JobQueue::CancelOutcome::requested: {
-        std::lock_guard lock(mutex);
-        if (auto it = running.find(id); it != running.end()) {
-          it->second->cancel = true;
-          it->second->stop = true;
-        }
-        send_json(res, 202, job_json(job, false));
-        return;
-      }
-      case JobQueue::CancelOutcome::finished:
-        throw ApiError(409, "status", "job " + m[1].str() + " is already " + job.status +
-                                          " (accepted: a queued or running job)");
-    }
-  });
-  add("/sweeps", "POST", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
-    only_params(req, {});
-    check_json_body(req);
-    const auto hkey = header_key(req);
-    std::optional<std::string> bkey;
-    const NewSweep s = parse_sweep_request(req.body, limits, *queue, bkey);
-    std::optional<std::string> launched;  // handed to the operator's MPI launch command (sweep_launcher.hpp)
-    if (launcher) launched = fs::absolute(opt.runs_dir / "service").string();
-    auto [row, created] = queue->submit_sweep(s.name, s.scene_id, s.fidelity, s.jobs, pick_key(hkey, bkey), launched);
-    if (created && launcher) {
-      try {
-        launcher->launch({row.id, s.name, s.base_json, s.variants, s.fidelity, s.jobs.front().dp});
-      } catch (const std::exception& e) {  // its jobs must not stay `running` for ever
-        spdlog::error("sweep {}: could not launch: {}", row.id, e.what());
-        for (const auto& j : queue->list(std::nullopt, row.id, 10000, 0))
-          queue->finish(j.id, "failed", std::nullopt, false, std::string("could not launch the sweep: ") + e.what());
-      }
-    } else if (created) {
-      wake.notify_all();
-    }
-    json jobs = json::array();
-    for (const auto& j : queue->list(std::nullopt, row.id, 10000, 0)) jobs.push_back(job_json(j, false));
-    res.set_header("Location", kPrefix + "/jobs?sweep=" + std::to_string(row.id));
-    send_json(res, created ? 201 : 200,
-              {{"id", row.id},
-               {"name", row.name},
-               {"scene_id", row.scene_id ? json(*row.scene_id) : json(nullptr)},
-               {"fidelity", row.fidelity},
-               {"created_at", row.created_at},
-               {"jobs", jobs}});
-  });
-
-  // The estimate of a job before it is submitted: the body of POST /jobs, resolved and built the same way
-  // (so the particle counts are the job's), and the run time from the calibrated cost model
-  // (runout/scenarios/cost_model.hpp, docs/tradeoff.md). Writes nothing.
-  add("/estimate", "POST", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
-    only_params(req, {});
-    check_json_body(req);
-    (void)header_key(req);  // checked as for POST /jobs, then unused
-    std::optional<std::string> bkey;
-    const JobSpec spec = parse_job_request(req.body, limits, *queue, bkey);
-    const CostModel model = CostModel::calibrated();
-    const int threads = std::max(1, threads_per_job);
-    const CostPrediction p = model.predict(spec.cost, threads);
-    const CostCoefficients& k = spec.cost.dimensions == 2 ? model.two_d : model.three_d;
-    const json resolved = json::parse(spec.scene_json);
-    send_json(res, 200,
-              {{"scene_name", spec.scene_name},
-               {"variant", spec.variant},
-               {"fidelity", spec.fidelity},
-               {"dp", resolved.contains("dp") ? resolved["dp"] : json(nullptr)},
-               {"dimensions", spec.dimensions},
-               {"particles",
-                {{"fluid", spec.fluid_particles}, {"boundary", spec.boundary_particles}, {"total", spec.particles}}},
-               {"particle_budget", opt.particle_budget},
-               {"steps_estimate", static_cast<int64_t>(p.steps)},
-               {"seconds_estimate", p.seconds},
-               {"model",
-                {{"formula", "steps = ceil(step_ratio * duration / dt0); seconds = steps * (a_fluid * fluid_mean * "
-                             "neighbours * passes + b_boundary * boundary + c_step) / speedup; speedup = 1 + "
-                             "parallel_efficiency * fluid_mean / (fluid_mean + parallel_half_fluid) * (threads - 1)"},
-                 {"duration_s", spec.cost.duration},
-                 {"dt_s", spec.cost.dt0},
-                 {"fluid_mean", spec.cost.fluid_mean},
-                 {"neighbours", spec.cost.neighbours},
-                 {"passes", spec.cost.passes},
-                 {"boundary", spec.cost.boundary},
-                 {"step_ratio", k.step_ratio},
-                 {"a_fluid_s", k.a_fluid},
-                 {"b_boundary_s", k.b_boundary},
-                 {"c_step_s", k.c_step},
-                 {"threads", threads},
-                 {"parallel_efficiency", model.parallel_efficiency},
-                 {"parallel_half_fluid", model.parallel_half_fluid},
-                 {"speedup", p.speedup},
-                 {"seconds_per_step", p.seconds_per_step},
-                 {"note", "calibrated on measured runs of the shipped scenes; how well it predicts: docs/tradeoff.md"}}}});
-  });
-
-  // Results.
-  add(R"(/jobs/(\d{1,18})/metrics)", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
-    only_params(req, {});
-    const Job j = require_job(m[1].str());
-    const int64_t run = run_of(j);
-    json flat = json::object();
-    for (const auto& [k, v] : store->metrics(run)) flat[k] = v;
-    const auto row = store->get_run(run);
-    send_json(res, 200,
-              {{"job", j.id},
-               {"run_id", run},
-               {"run_status", row ? row->status : ""},
-               {"manifest_hash", row ? row->manifest_hash : ""},
-               {"metrics", flat},
-               {"metrics_json", json::parse(store->metrics_json(run), nullptr, false)},
-               {"series", store->series_names(run)}});
-  });
-  add(R"(/jobs/(\d{1,18})/series/(.+)\.csv)", "GET",
-      [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
-        only_params(req, {});
-        const std::string name = m[2].str();
-        if (!safe_file_name(name))
-          throw ApiError(400, "name", "series name must be 1 to 64 of A-Z a-z 0-9 _ . - without '..'");
-        const Job j = require_job(m[1].str());
-        const int64_t run = run_of(j);
-        auto csv = store->series_csv(run, name);
-        if (!csv) {
-          std::string list;
-          for (const auto& n : store->series_names(run)) list += (list.empty() ? "" : ", ") + n;
-          throw ApiError(404, "name", "job " + m[1].str() + " has no series '" + name + "' (available: " + list + ")");
-        }
-        res.status = 200;
-        res.set_content(*csv, "text/csv");
-      });
-  auto raster = [this](const std::string& id, const std::string& file, httplib::Response& res, const char* type) {
-    const Job j = require_job(id);
-    (void)run_of(j);
-    const fs::path p = out_dir_of(j) / "rasters" / file;
-    if (!fs::is_regular_file(p))
-      throw ApiError(404, "name", "job " + id + " has no raster '" + file +
-                                      "' (rasters exist for terrain scenes: max_depth, max_speed, deposit_depth; map.png)");
-    res.status = 200;
-    res.set_content(read_file(p), type);
-  };
-  add(R"(/jobs/(\d{1,18})/rasters/(.+)\.tif)", "GET",
-      [this, raster](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
-        only_params(req, {});
-        if (!safe_file_name(m[2].str()))
-          throw ApiError(400, "name", "raster name must be 1 to 64 of A-Z a-z 0-9 _ . - without '..'");
-        raster(m[1].str(), m[2].str() + ".tif", res, "image/tiff");
-      });
-  add(R"(/jobs/(\d{1,18})/map\.png)", "GET",
-      [this, raster](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
-        only_params(req, {});
-        raster(m[1].str(), "max_depth.png", res, "image/png");
-      });
-  // Where map.png lies on the ground, and what to draw over it: the raster's extent and CRS (read from
-  // max_depth.tif, whose cells the PNG enlarges by a whole factor), and the map geometry of the job's
-  // structures, protected zones, release and cross-sections from its resolved scene (working CRS, metres).
-  add(R"(/jobs/(\d{1,18})/map\.json)", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
-    only_params(req, {});
-    const Job j = require_job(m[1].str());
-    const int64_t run = run_of(j);
-    const fs::path tif = out_dir_of(j) / "rasters" / "max_depth.tif";
-    if (!fs::is_regular_file(tif))
-      throw ApiError(404, "id", "job " + m[1].str() + " has no map (maps exist for terrain scenes)");
-    terrain::Grid g;
-    try {
-      g = terrain::load_dem(tif.string());
-    } catch (const std::exception& e) {
-      throw ApiError(500, "id", "cannot read the extent of job " + m[1].str() + "'s max_depth.tif: " + e.what());
-    }
-    const json scene = json::parse(j.scene_json, nullptr, false);
-    auto ring = [](const json& pts, bool close) {
-      json c = json::array();
-      if (!pts.is_array()) return c;
-      for (const auto& p : pts)
-        if (p.is_array() && p.size() >= 2 && p[0].is_number() && p[1].is_number()) c.push_back({p[0], p[1]});
-      if (close && c.size() > 2 && c.front() != c.back()) c.push_back(c.front());
-      return c;
-    };
-    auto polygon = [&](const json& pts) { return json{{"type", "Polygon"}, {"coordinates", json::array({ring(pts, true)})}}; };
-    auto line = [&](const json& pts) { return json{{"type", "LineString"}, {"coordinates", ring(pts, false)}}; };
-    auto list = [&](const char* key) { return scene.is_object() && scene.contains(key) && scene[key].is_array() ? scene[key] : json::array(); };
-    json structures = json::array(), zones = json::array(), sections = json::array();
-    for (const auto& st : list("structures")) {
-      json geom = st.contains("polygon") ? polygon(st["polygon"]) : line(st.value("axis", json::array()));
-      structures.push_back({{"name", st.value("name", "")}, {"type", st.value("type", "")}, {"geometry", geom}});
-    }
-    for (const auto& z : list("protected_zones"))
-      zones.push_back({{"name", z.value("name", "")}, {"geometry", polygon(z.value("polygon", json::array()))}});
-    for (const auto& mon : list("monitors"))
-      if (mon.value("type", "") == "section" && mon.contains("line"))
-        sections.push_back({{"name", mon.value("name", "")}, {"series", "section_" + mon.value("name", "")},
-                            {"geometry", line(mon["line"])}});
-    json release = nullptr;
-    if (scene.is_object() && scene.contains("release") && scene["release"].is_object() && scene["release"].contains("polygon"))
-      release = {{"geometry", polygon(scene["release"]["polygon"])}};
-    const std::string self = kPrefix + "/jobs/" + m[1].str();
-    send_json(res, 200,
-              {{"job", j.id},
-               {"run_id", run},
-               {"image", self + "/map.png"},
-               {"crs", terrain::crs_name(g.crs_wkt)},
-               {"raster",
-                {{"nx", g.nx}, {"ny", g.ny}, {"dx", g.dx}, {"dy", g.dy},
-                 {"west", g.x0}, {"north", g.y0}, {"east", g.x1()}, {"south", g.y1()}}},
-               {"structures", structures},
-               {"protected_zones", zones},
-               {"release", release},
-               {"sections", sections}});
-  });
-  add("/compare", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
-    only_params(req, {"jobs", "baseline"});
-    if (!req.has_param("jobs")) throw ApiError(400, "jobs", "missing (required: 1 to 50 job ids separated by commas)");
-    std::vector<int64_t> ids;
-    std::stringstream ss(req.get_param_value("jobs"));
-    for (std::string part; std::getline(ss, part, ',');) ids.push_back(int_param("jobs", part, 1, INT64_MAX / 2));
-    if (ids.empty() || ids.size() > 50) throw ApiError(400, "jobs", "must list 1 to 50 job ids separated by commas");
-    const int64_t base_id =
-        req.has_param("baseline") ? int_param("baseline", req.get_param_value("baseline"), 1, INT64_MAX / 2) : ids.front();
-    auto run_for = [&](int64_t id, const char* field) {
-      auto j = queue->get(id);
-      if (!j) throw ApiError(404, field, "no job with id " + std::to_string(id));
-      if (j->status != "done" || !j->run_id)
-        throw ApiError(409, field, "job " + std::to_string(id) + " is " + j->status + " (accepted: done jobs)");
-      return *j->run_id;
-    };
-    const int64_t base_run = run_for(base_id, "baseline");
-    std::vector<int64_t> job_ids, runs;
-    for (int64_t id : ids) {
-      if (id == base_id) continue;
-      job_ids.push_back(id);
-      runs.push_back(run_for(id, "jobs"));
-    }
-    const Comparison c = compare_runs(*store, runs, base_run);
-    auto num = [](const std::optional<double>& v) -> json { return v ? json(*v) : json(nullptr); };
-    json rows = json::array();
-    for (const auto& r : c.rows) {
-      json values = json::array(), diffs = json::array(), pct = json::array();
-      for (size_t k = 0; k < r.values.size(); ++k) {
-        values.push_back(num(r.values[k]));
-        diffs.push_back(r.values[k] && r.baseline ? json(*r.values[k] - *r.baseline) : json(nullptr));
-        pct.push_back(num(r.percent[k]));
-      }
-      rows.push_back({{"metric", r.metric}, {"baseline", num(r.baseline)}, {"values", values}, {"difference", diffs},
-                      {"percent", pct}});
-    }
-    json columns = json::array();
-    for (size_t k = 0; k < job_ids.size(); ++k) columns.push_back({{"job", job_ids[k]}, {"run_id", runs[k]}, {"label", c.runs[k]}});
-    send_json(res, 200,
-              {{"baseline", {{"job", base_id}, {"run_id", base_run}, {"label", c.baseline}}},
-               {"jobs", columns},
-               {"metrics", rows}});
-  });
+  routes_health();
+  routes_scenes();
+  routes_jobs();
+  routes_sweeps();
+  routes_estimate();
+  routes_results();
+  routes_compare();
 }
 
 void Server::Impl::serve_web(const httplib::Request& req, httplib::Response& res) const {
@@ -647,10 +77,13 @@ void Server::Impl::dispatch(const httplib::Request& req, httplib::Response& res)
     }
   } catch (const ApiError& e) {
     if (e.status == 401) res.set_header("WWW-Authenticate", "Bearer");
-    send_error(res, e.status, e.field, e.what());
+    for (const auto& [k, v] : e.headers) res.set_header(k, v);
+    json body = {{"error", {{"status", e.status}, {"field", e.field}, {"message", scrub(e.what())}}}};
+    if (!e.budget_json.empty()) body["budget"] = json::parse(e.budget_json);
+    send_json(res, e.status, body);
   } catch (const std::exception& e) {
     spdlog::error("{} {}: {}", req.method, req.path, e.what());
-    send_error(res, 500, "", std::string("internal error: ") + e.what());
+    send_error(res, 500, "", scrub(std::string("internal error: ") + e.what()));
   }
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   // Method, path and status only: never headers (the token) or bodies.
@@ -766,6 +199,31 @@ Server::Server(ServeOptions options) : impl_(std::make_unique<Impl>()) {
   m.opt = std::move(options);
   m.limits.particle_budget = m.opt.particle_budget;
   m.limits.scene_dir = m.opt.scene_dir;
+  if (!m.opt.token.empty()) m.tokens.push_back(m.opt.token);
+  for (const auto& t : m.opt.tokens)
+    if (!t.empty() && std::find(m.tokens.begin(), m.tokens.end(), t) == m.tokens.end()) m.tokens.push_back(t);
+  for (const auto& t : m.tokens) m.token_labels.push_back("token-" + terrain::sha256_hex(t).substr(0, 12));
+  {
+    // Longest first, so that a root inside another is replaced before it. The scene directory's prefix goes
+    // (file names read as the client wrote them); the rest are named by their option.
+    std::error_code ec;
+    std::vector<std::pair<std::string, std::string>> labels;
+    auto add_root = [&](const fs::path& p, const std::string& label, bool prefix_only) {
+      for (const fs::path& q : {fs::absolute(p, ec), fs::weakly_canonical(p, ec)}) {
+        std::string text = q.lexically_normal().string();
+        while (text.size() > 1 && text.back() == '/') text.pop_back();
+        if (text.size() <= 1) continue;
+        labels.emplace_back(text + "/", prefix_only ? "" : label + "/");
+        labels.emplace_back(text, label);
+      }
+    };
+    add_root(m.opt.scene_dir, "<scene-dir>", true);
+    add_root(m.opt.runs_dir, "<runs>", false);
+    add_root(m.opt.db, "<db>", false);
+    if (!m.opt.web_root.empty()) add_root(m.opt.web_root, "<web-root>", false);
+    std::stable_sort(labels.begin(), labels.end(), [](const auto& a, const auto& b) { return a.first.size() > b.first.size(); });
+    m.path_labels = labels;
+  }
   // One server per database file: the queue's recovery assumes no other server runs its jobs.
   const std::string lock_path = m.opt.db.string() + ".serve-lock";
   m.lock_fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
@@ -803,45 +261,32 @@ Server::~Server() {
 
 int Server::start() {
   Impl& m = *impl_;
-  m.http.set_payload_max_length(m.opt.max_body);
-  // Headers and body are separate writes: without TCP_NODELAY, Nagle + delayed ACK add ~40 ms to small replies.
-  m.http.set_tcp_nodelay(true);
-  const int http_threads = std::max(2, m.opt.http_threads);
-  m.http.new_task_queue = [http_threads] { return new httplib::ThreadPool(static_cast<size_t>(http_threads)); };
-  // Every method and path goes to one dispatcher (after httplib has read the body), which answers 404 and
-  // 405 (with Allow) itself.
-  const httplib::Server::Handler all = [&m](const httplib::Request& req, httplib::Response& res) { m.dispatch(req, res); };
-  m.http.Get(".*", all);
-  m.http.Post(".*", all);
-  m.http.Put(".*", all);
-  m.http.Patch(".*", all);
-  m.http.Delete(".*", all);
-  m.http.Options(".*", all);
-  // Errors httplib answers itself (413 body too large, 400 unreadable request): a JSON body too.
-  m.http.set_error_handler(httplib::Server::HandlerWithResponse([&m](const httplib::Request&, httplib::Response& res) {
-    if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
-    if (res.status == 413)
-      send_error(res, 413, "(body)", "the body is over the limit (accepted: at most " + std::to_string(m.opt.max_body) +
-                                         " bytes, --max-body)");
-    else
-      send_error(res, res.status, "(request)", "the request could not be read (HTTP " + std::to_string(res.status) + ")");
-    return httplib::Server::HandlerResponse::Handled;
-  }));
-  if (m.opt.port == 0) {
-    m.port = m.http.bind_to_any_port(m.opt.host);
-    if (m.port < 0) throw std::runtime_error("cannot bind to " + m.opt.host);
-  } else {
-    if (!m.http.bind_to_port(m.opt.host, m.opt.port))
-      throw std::runtime_error("cannot bind to " + m.opt.host + ":" + std::to_string(m.opt.port));
-    m.port = m.opt.port;
-  }
+  FrontOptions f;
+  f.host = m.opt.host;
+  f.port = m.opt.port;
+  f.max_body = m.opt.max_body;
+  f.header_timeout = m.opt.header_timeout;
+  f.body_timeout = m.opt.body_timeout;
+  f.idle_timeout = m.opt.idle_timeout;
+  f.max_connections = m.opt.max_connections;
+  f.max_connections_per_client = m.opt.max_connections_per_client;
+  f.handler_threads = std::max(2, m.opt.http_threads);
+  const std::string health = kPrefix + "/health";
+  m.front = std::make_unique<HttpFront>(
+      f, [&m](const httplib::Request& req, httplib::Response& res) { m.dispatch(req, res); },
+      [&m](const httplib::Request& req, httplib::Response& res) { return m.check_head(req, res); },
+      [health](const httplib::Request& req) { return (req.method == "GET" || req.method == "HEAD") && req.path == health; });
+  m.port = m.front->bind();
   const int requeued = m.queue->recover();
   if (requeued > 0) spdlog::warn("{} job(s) left running by a previous server are back in the queue", requeued);
   for (int k = 0; k < m.opt.workers; ++k) m.workers.emplace_back([&m, k] { m.worker_loop(k); });
   return m.port;
 }
 
-bool Server::serve() { return impl_->http.listen_after_bind(); }
+bool Server::serve() {
+  impl_->front->run();
+  return true;
+}
 
 void Server::stop() {
   Impl& m = *impl_;
@@ -852,7 +297,7 @@ void Server::stop() {
     for (auto& [id, f] : m.running) f->stop = true;
   }
   m.wake.notify_all();
-  m.http.stop();
+  if (m.front) m.front->stop();
   for (auto& t : m.workers) t.join();
   m.workers.clear();
   if (m.launcher) m.launcher->stop();  // launched sweeps: SIGTERM, unfinished jobs back in the queue

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace runout::service {
 
@@ -20,9 +21,20 @@ struct ServeOptions {
   int workers = 1;               // 0: accept and queue jobs, run none
   int threads_per_job = 0;       // OpenMP threads of one job; 0: the cores divided among the workers
   std::string token;             // bearer token for writes; empty: writes are open
+  std::vector<std::string> tokens;  // more accepted tokens (a token file of several lines); each has its budget
   size_t max_body = 1 << 20;     // bytes
   int64_t particle_budget = 2'000'000;
-  int http_threads = 16;         // request handler threads
+  int http_threads = 8;          // API handler threads (health has a thread of its own)
+  // Limits of the HTTP front (http_front.hpp, docs/service.md "Limits").
+  double header_timeout = 10;    // s for a whole request head
+  double body_timeout = 30;      // s for a whole body
+  double idle_timeout = 5;       // s a kept-alive connection waits for its next request
+  int max_connections = 512;
+  int max_connections_per_client = 32;
+  // The work budget: predicted CPU-seconds (the cost model, × threads per job) of queued and running jobs,
+  // per token and in all; 0: no limit. Over it a submission is 429 with Retry-After.
+  double budget_token_cpu_s = 86'400;   // 24 CPU-hours per token
+  double budget_total_cpu_s = 259'200;  // 72 CPU-hours in all
   // The web page's files (web/ as built: docs/web.md), served at / and /web/...; empty or missing: no page.
   std::filesystem::path web_root;
 };

@@ -1,0 +1,353 @@
+#pragma once
+// Internal to the HTTP service: Server::Impl and the helpers that server.cpp and the route files
+// (routes_<resource>.cpp, one per resource) share. Included by those files only: it pulls in httplib.h and
+// nlohmann-json, which server.hpp keeps out.
+#include "server.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <cstdlib>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <thread>
+#include <vector>
+
+// The project's headers (Eigen) before httplib.h: httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen.
+#include "jobs.hpp"
+#include "runout/scenarios/cost_model.hpp"
+#include "requests.hpp"
+#include "runout/scenarios/store.hpp"
+#include "runout/scenarios/study.hpp"
+#include "runout/terrain/raster.hpp"
+#include "sweep_launcher.hpp"
+#include "web_files.hpp"
+
+#include "http_front.hpp"  // httplib.h
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#ifndef RUNOUT_VERSION
+#define RUNOUT_VERSION "unknown"
+#endif
+
+namespace runout::service {
+
+namespace srv {
+
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+inline const std::string kPrefix = "/api/v1";
+inline const std::set<std::string> kStates = {"queued", "running", "done", "failed", "cancelled"};
+
+inline std::string dump(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
+
+inline void send_json(httplib::Response& res, int status, const json& j) {
+  res.status = status;
+  res.set_content(dump(j), "application/json");
+}
+
+inline void send_error(httplib::Response& res, int status, const std::string& field, const std::string& message) {
+  send_json(res, status, {{"error", {{"status", status}, {"field", field}, {"message", message}}}});
+}
+
+inline std::string lower(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+inline std::string trim(const std::string& s) {
+  const size_t a = s.find_first_not_of(" \t"), b = s.find_last_not_of(" \t");
+  return a == std::string::npos ? std::string() : s.substr(a, b - a + 1);
+}
+
+inline json job_json(const Job& j, bool full) {
+  auto or_null = [](const auto& o) -> json { return o ? json(*o) : json(nullptr); };
+  json progress = {{"simulated_time", j.sim_time},
+                   {"duration", j.duration},
+                   {"fraction", j.duration > 0 ? std::min(1.0, j.sim_time / j.duration) : 0.0},
+                   {"steps", j.steps},
+                   {"wall_seconds", j.wall_seconds},
+                   {"eta_seconds", or_null(j.eta_seconds)}};
+  const std::string self = kPrefix + "/jobs/" + std::to_string(j.id);
+  json out = {{"id", j.id},
+              {"status", j.status},
+              {"scene_name", j.scene_name},
+              {"scene_id", or_null(j.scene_id)},
+              {"fidelity", j.fidelity},
+              {"dp", or_null(j.dp)},
+              {"sweep_id", or_null(j.sweep_id)},
+              {"sweep", j.sweep},
+              {"variant", j.variant},
+              {"particles", j.particles},
+              {"progress", progress},
+              {"attempts", j.attempts},
+              {"cancel_requested", j.cancel_requested},
+              {"run_id", or_null(j.run_id)},
+              {"reused_stored_run", j.reused},
+              {"error", j.error},
+              {"created_at", j.created_at},
+              {"started_at", or_null(j.started_at)},
+              {"finished_at", or_null(j.finished_at)},
+              {"updated_at", j.updated_at},
+              {"links", {{"self", self}, {"metrics", self + "/metrics"}}}};
+  if (full) out["scene"] = json::parse(j.scene_json, nullptr, false);
+  return out;
+}
+
+inline json scene_json(const SceneRow& s, bool full) {
+  json out = {{"id", s.id},
+              {"name", s.name},
+              {"content_hash", s.content_hash},
+              {"structures", json::parse(s.structures_json, nullptr, false)},
+              {"created_at", s.created_at}};
+  if (full) out["scene"] = json::parse(s.scene_json, nullptr, false);
+  return out;
+}
+
+// A positive integer from a query parameter; 400 naming the parameter otherwise.
+inline int64_t int_param(const std::string& name, const std::string& v, int64_t lo, int64_t hi) {
+  const std::string range = "an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+  if (v.empty() || v.size() > 18 || !std::all_of(v.begin(), v.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    throw ApiError(400, name, "must be " + range);
+  const int64_t x = std::stoll(v);
+  if (x < lo || x > hi) throw ApiError(400, name, "must be " + range + " (got " + v + ")");
+  return x;
+}
+
+inline void only_params(const httplib::Request& req, const std::set<std::string>& allowed) {
+  for (const auto& [k, v] : req.params)
+    if (!allowed.count(k)) {
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      throw ApiError(400, k, "unknown query parameter (accepted: " + (list.empty() ? std::string("none") : list) + ")");
+    }
+}
+
+inline bool constant_time_equal(const std::string& a, const std::string& b) {
+  unsigned char diff = a.size() == b.size() ? 0 : 1;
+  for (size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ b[i % std::max<size_t>(b.size(), 1)]);
+  return diff == 0 && a.size() == b.size();
+}
+
+inline std::string read_file(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+using Handler = std::function<void(const httplib::Request&, httplib::Response&, const std::smatch&)>;
+struct Route {
+  std::string text;
+  std::regex pattern;
+  std::map<std::string, Handler> methods;  // GET, POST, DELETE
+  bool write(const std::string& m) const { return m == "POST" || m == "DELETE"; }
+};
+
+}  // namespace srv
+
+using namespace srv;
+
+struct Server::Impl {
+  ServeOptions opt;
+  Limits limits;
+  std::vector<std::string> tokens, token_labels;  // accepted bearer tokens; their labels (job.submitted_by)
+  std::vector<std::pair<std::string, std::string>> path_labels;  // server paths -> what errors show instead
+  std::unique_ptr<RunStore> store;  // reads for the HTTP side
+  std::unique_ptr<JobQueue> queue;
+  std::unique_ptr<HttpFront> front;
+  std::vector<Route> routes;
+  std::unique_ptr<WebRoot> web;
+  int lock_fd = -1;
+  int port = 0;
+
+  // Workers.
+  std::vector<std::thread> workers;
+  std::mutex mutex;
+  std::condition_variable wake;
+  bool stopping = false;
+  struct Running {
+    std::atomic<bool> stop{false};
+    std::atomic<bool> cancel{false};
+  };
+  std::map<int64_t, std::shared_ptr<Running>> running;  // job id -> its stop flags (under mutex)
+  std::atomic<int> busy{0};
+  int threads_per_job = 1;
+  std::unique_ptr<SweepLauncher> launcher;  // RUNOUT_SWEEP_LAUNCHER: sweeps go to an MPI launch command
+
+  void add(const std::string& pattern, const std::string& method, Handler h) {
+    const std::string full = "^" + kPrefix + pattern + "$";
+    auto it = std::find_if(routes.begin(), routes.end(), [&](const Route& r) { return r.text == full; });
+    if (it == routes.end()) {
+      routes.push_back(Route{full, std::regex(full), {}});
+      it = routes.end() - 1;
+    }
+    it->methods[method] = std::move(h);
+  }
+
+  static std::string allow_of(const Route& r) {
+    std::string allow;
+    for (const auto& [m, h] : r.methods) {
+      allow += (allow.empty() ? "" : ", ") + m;
+      if (m == "GET") allow += ", HEAD";
+    }
+    return allow + ", OPTIONS";
+  }
+
+  // Who submits: the label of the request's token ("open" when writes are open). Throws 401 for a write
+  // without a valid token. Every token is compared, in constant time.
+  std::string authorize(const httplib::Request& req) const {
+    if (tokens.empty()) return "open";
+    const std::string h = req.get_header_value("Authorization");
+    const std::string prefix = "Bearer ";
+    int found = -1;
+    if (h.size() > prefix.size() && h.compare(0, prefix.size(), prefix) == 0)
+      for (size_t k = 0; k < tokens.size(); ++k)
+        if (constant_time_equal(h.substr(prefix.size()), tokens[k])) found = static_cast<int>(k);
+    if (found < 0)
+      throw ApiError(401, "Authorization", "a write needs the header 'Authorization: Bearer <token>' with the service's token");
+    return token_labels[static_cast<size_t>(found)];
+  }
+
+  // Before a body is read (http_front.hpp): writes to the API need the token, so a client without it never
+  // costs the server a body.
+  bool check_head(const httplib::Request& req, httplib::Response& res) const {
+    if (tokens.empty() || (req.method != "POST" && req.method != "DELETE") || req.path.rfind(kPrefix + "/", 0) != 0)
+      return false;
+    try {
+      (void)authorize(req);
+      return false;
+    } catch (const ApiError& e) {
+      res.set_header("WWW-Authenticate", "Bearer");
+      send_error(res, e.status, e.field, e.what());
+      return true;
+    }
+  }
+
+  // The media type exactly (case-insensitive), parameters allowed; a charset, if given, must be UTF-8.
+  void check_json_body(const httplib::Request& req) const {
+    if (!req.has_header("Content-Type")) return;
+    const std::string ct = req.get_header_value("Content-Type");
+    const std::string accepted = " (accepted: application/json, optionally with '; charset=utf-8')";
+    bool ok = lower(trim(ct.substr(0, ct.find(';')))) == "application/json";
+    for (size_t semi = ct.find(';'); ok && semi != std::string::npos;) {
+      const size_t next = ct.find(';', semi + 1);
+      const std::string param = lower(trim(ct.substr(semi + 1, next == std::string::npos ? std::string::npos : next - semi - 1)));
+      if (param.rfind("charset=", 0) == 0) {
+        std::string v = param.substr(8);
+        if (v.size() >= 2 && v.front() == '"' && v.back() == '"') v = v.substr(1, v.size() - 2);
+        ok = v == "utf-8" || v == "utf8";
+      }
+      semi = next;
+    }
+    if (!ok) throw ApiError(415, "Content-Type", "must be application/json (got '" + ct.substr(0, 80) + "')" + accepted);
+  }
+
+  // Error messages never show the server's own paths: the scene directory's prefix is dropped (names are
+  // relative to it, as the client wrote them), the other roots are named by their option.
+  std::string scrub(std::string msg) const {
+    for (const auto& [from, to] : path_labels)
+      for (size_t at = msg.find(from); !from.empty() && at != std::string::npos; at = msg.find(from, at + to.size()))
+        msg.replace(at, from.size(), to);
+    return msg;
+  }
+
+  // The cost model's CPU-seconds of a job (run time x threads), what the work budget counts.
+  double cpu_seconds(const JobSpec& spec) const {
+    const int threads = std::max(1, threads_per_job);
+    return CostModel::calibrated().predict(spec.cost, threads).seconds * threads;
+  }
+
+  // Refuses a submission of `requested` CPU-seconds that the budget cannot take: 422 when it never could,
+  // 429 with Retry-After (how long the workers need to drain the excess) when it could later.
+  BudgetCheck budget_check(double requested) const {
+    if (opt.budget_token_cpu_s <= 0 && opt.budget_total_cpu_s <= 0) return nullptr;  // no budget: no backlog query
+    return [this, requested](const Backlog& b) {
+      auto over = [&](const char* scope, double limit, double queued, const char* flag) {
+        json budget = {{"scope", scope}, {"limit_cpu_s", limit}, {"queued_cpu_s", queued},
+                       {"requested_cpu_s", requested}, {"option", flag}};
+        if (requested > limit) {
+          ApiError e(422, "(budget)", "the submission is predicted at " + std::to_string(std::lround(requested)) +
+                                          " CPU-s, over the work budget (accepted: at most " +
+                                          std::to_string(std::lround(limit)) + " CPU-s " + scope + ", " + flag +
+                                          "; choose a coarser fidelity or a shorter duration)");
+          e.budget_json = budget.dump();
+          throw e;
+        }
+        const double rate = std::max(1, opt.workers) * std::max(1, threads_per_job);  // CPU-s drained per s
+        const long retry = std::clamp<long>(std::lround(std::ceil((queued + requested - limit) / rate)), 1, 86400);
+        budget["retry_after_s"] = retry;
+        ApiError e(429, "(budget)", "the queue holds " + std::to_string(std::lround(queued)) + " predicted CPU-s " +
+                                        scope + "; this submission (" + std::to_string(std::lround(requested)) +
+                                        " CPU-s) would exceed the work budget (accepted: at most " +
+                                        std::to_string(std::lround(limit)) + " CPU-s queued " + scope + ", " + flag +
+                                        "); retry after " + std::to_string(retry) + " s");
+        e.headers.emplace_back("Retry-After", std::to_string(retry));
+        e.budget_json = budget.dump();
+        throw e;
+      };
+      if (opt.budget_token_cpu_s > 0 && b.mine_cpu_s + requested > opt.budget_token_cpu_s)
+        over("per token", opt.budget_token_cpu_s, b.mine_cpu_s, "--budget-token-cpu-s");
+      if (opt.budget_total_cpu_s > 0 && b.total_cpu_s + requested > opt.budget_total_cpu_s)
+        over("in all", opt.budget_total_cpu_s, b.total_cpu_s, "--budget-total-cpu-s");
+    };
+  }
+
+  std::optional<std::string> header_key(const httplib::Request& req) const {
+    if (!req.has_header("Idempotency-Key")) return std::nullopt;
+    std::string k = req.get_header_value("Idempotency-Key");
+    check_idempotency_key(k, "Idempotency-Key");
+    return k;
+  }
+
+  std::optional<std::string> pick_key(const std::optional<std::string>& header, const std::optional<std::string>& body) {
+    if (header && body && *header != *body)
+      throw ApiError(422, "idempotency_key", "differs from the Idempotency-Key header (accepted: the same key, or only one)");
+    return header ? header : body;
+  }
+
+  Job require_job(const std::string& id_text) const {
+    const int64_t id = std::stoll(id_text);
+    auto j = queue->get(id);
+    if (!j) throw ApiError(404, "id", "no job with id " + id_text);
+    return *j;
+  }
+
+  // The stored run of a job, for its results (409 while it has none).
+  int64_t run_of(const Job& j) const {
+    if (!j.run_id || (j.status != "done" && j.status != "failed"))
+      throw ApiError(409, "status", "job " + std::to_string(j.id) + " is " + j.status +
+                                        "; results exist once it is done (or failed after running)");
+    return *j.run_id;
+  }
+
+  fs::path out_dir_of(const Job& j) const {
+    if (j.reused && j.run_id)
+      if (auto d = queue->out_dir_of_run(*j.run_id)) return *d;
+    return j.out_dir;
+  }
+
+  void setup_routes();  // the route table: one function per resource, routes_*.cpp
+  void routes_health();
+  void routes_scenes();
+  void routes_jobs();
+  void routes_sweeps();
+  void routes_estimate();
+  void routes_results();
+  void routes_compare();
+  void serve_web(const httplib::Request& req, httplib::Response& res) const;
+  void dispatch(const httplib::Request& req, httplib::Response& res);
+  void worker_loop(int index);
+  void run_job(const Job& job);
+};
+
+}  // namespace runout::service
