@@ -23,6 +23,8 @@
 #include "tradeoff_cli.hpp"
 #include "runout/scenarios/run.hpp"
 #include "runout/scenarios/scene.hpp"
+#include "runout/scenarios/schema.hpp"
+#include <nlohmann/json.hpp>
 #include "runout/scenarios/store.hpp"
 #include "runout/scenarios/study.hpp"
 #include "runout/scenarios/sweep.hpp"
@@ -529,7 +531,14 @@ int main(int argc, char** argv) {
   calibrate->add_option("--sweep", calibrate_cmd.sweep_prefix, "Only runs whose sweep name starts with this");
   calibrate->add_option("--json", calibrate_cmd.json_out, "Write the fitted coefficients to this file");
 
+  auto* schema = app.add_subcommand("schema", "Print the JSON Schema of a scene, generated from the models' "
+                                              "descriptors (example: runout schema > scene.schema.json)");
+
   CLI11_PARSE(app, argc, argv);
+  if (schema->parsed()) {
+    std::cout << runout::scene_schema().dump(2) << "\n";
+    return 0;
+  }
   if (tradeoff->parsed()) {
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);

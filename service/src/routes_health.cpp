@@ -1,6 +1,8 @@
 // Routes: GET /health and GET /openapi.json (server_impl.hpp, docs/service.md).
 #include "server_impl.hpp"
 
+#include "runout/scenarios/schema.hpp"
+
 namespace runout::service {
 
 void Server::Impl::routes_health() {
@@ -40,6 +42,12 @@ void Server::Impl::routes_health() {
                  {"header_timeout_s", opt.header_timeout},
                  {"body_timeout_s", opt.body_timeout},
                  {"idle_timeout_s", opt.idle_timeout}}}});
+  });
+  // The scene format's JSON Schema, from the models' descriptors (the OpenAPI Scene refers to it).
+  add("/schema/scene", "GET", [](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
+    only_params(req, {});
+    res.status = 200;
+    res.set_content(scene_schema().dump(), "application/schema+json");
   });
   add("/openapi.json", "GET", [](const httplib::Request&, httplib::Response& res, const std::smatch&) {
     res.status = 200;

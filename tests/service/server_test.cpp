@@ -333,7 +333,8 @@ TEST_F(Service, OpenApiDocumentDescribesEveryRoute) {
       {"/jobs/{id}/rasters/{name}.tif", {"get"}},
       {"/jobs/{id}/map.png", {"get"}},
       {"/jobs/{id}/map.json", {"get"}},
-      {"/compare", {"get"}}};
+      {"/compare", {"get"}},
+      {"/schema/scene", {"get"}}};
   const json& paths = doc.body.at("paths");
   EXPECT_EQ(paths.size(), routes.size());
   for (const auto& [path, methods] : routes) {
@@ -350,6 +351,20 @@ TEST_F(Service, OpenApiDocumentDescribesEveryRoute) {
   bool allow = false;
   for (const auto& [k, v] : wrong.headers) allow = allow || (k == "Allow" && v.find("POST") != std::string::npos);
   EXPECT_TRUE(allow);
+}
+
+// The scene schema the OpenAPI's Scene refers to: served, one alternative per registered rheology.
+TEST_F(Service, SceneSchemaIsServedFromTheDescriptors) {
+  start({"--workers", "0"});
+  const Reply doc = get("/openapi.json");
+  EXPECT_EQ(doc.body.at("components").at("schemas").at("Scene").at("$ref"), "schema/scene");
+  const Reply schema = get("/schema/scene");
+  ASSERT_EQ(schema.status, 200) << schema.text.substr(0, 200);
+  const json& alts = schema.body.at("properties").at("materials").at("items").at("oneOf");
+  std::vector<std::string> names;
+  for (const auto& a : alts) names.push_back(a.at("properties").at("rheology").at("const"));
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"bingham", "friction-hbp", "hbp", "mu-i", "newtonian"}));
 }
 
 }  // namespace
