@@ -703,18 +703,21 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
               "cfl", "density_diffusion", "density_diffusion_delta", "artificial_viscosity", "viscosity_cap",
               "viscosity_cap_factor", "shear_rate_floor", "min_dt", "boundary_density", "verlet_reset_steps", "boundary_pressure",
               "density_floor", "max_dilatancy"});
-  cfg.kernel = kernel_from_name(num.string_or("kernel", "wendland", kernel_names()));
-  cfg.smoothing_length = num.number_or("smoothing_ratio", 1.5, 1.0, 3.0) * dp;
-  const std::string integ = num.string_or("integrator", "symplectic", {"symplectic", "verlet"});
-  cfg.integrator = integ == "verlet" ? Integrator::verlet : Integrator::symplectic;
-  cfg.verlet_reset_steps = static_cast<int>(num.integer("verlet_reset_steps", 40, 1, 1000));
-  cfg.cfl = num.number_or("cfl", 0.2, 0.0, 1.0, true);
-  const std::string ddt = num.string_or("density_diffusion", "fourtakas", {"none", "molteni", "fourtakas"});
-  cfg.density_diffusion = ddt == "none"      ? DensityDiffusion::none
-                          : ddt == "molteni" ? DensityDiffusion::molteni
-                                             : DensityDiffusion::fourtakas;
-  cfg.density_diffusion_delta = num.number_or("density_diffusion_delta", 0.1, 0.0, 1.0);
-  cfg.artificial_viscosity = num.number_or("artificial_viscosity", 0.0, 0.0, 10.0);
+  // The plain numbers: key, default and range from the engine's descriptors (numerics_parameters()).
+  auto numeric = [&num](const char* key) -> real {
+    const ParameterSpec& p = numerics_parameter(key);
+    if (p.integer) return static_cast<real>(num.integer(key, static_cast<long>(p.default_value), static_cast<long>(p.lo),
+                                                        static_cast<long>(p.hi)));
+    return num.number_or(key, p.default_value, p.lo, p.hi, p.lo_open, p.hi_open);
+  };
+  cfg.kernel = kernel_from_name(num.string_or("kernel", kernel_names().front(), kernel_names()));
+  cfg.smoothing_length = numeric("smoothing_ratio") * dp;
+  cfg.integrator = integrator_from_name(num.string_or("integrator", "symplectic", integrator_names()));
+  cfg.verlet_reset_steps = static_cast<int>(numeric("verlet_reset_steps"));
+  cfg.cfl = numeric("cfl");
+  cfg.density_diffusion = density_diffusion_from_name(num.string_or("density_diffusion", "fourtakas", density_diffusion_names()));
+  cfg.density_diffusion_delta = numeric("density_diffusion_delta");
+  cfg.artificial_viscosity = numeric("artificial_viscosity");
   // c0: explicit, or beta sqrt(g H) with H the depth scale (default: fluid top to the lowest particle).
   // On terrain the lowest particle is far down the valley, not under the flow. There the speed scale is the
   // energy line's: a block sliding at the travel angle reaches sqrt(2 g E) with E the energy height, and
@@ -722,7 +725,7 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
   // loses more than the travel angle says). An explicit speed_of_sound trades that margin for speed.
   const real default_depth = tmodel ? std::max<real>(tmodel->release_depth, dp) : std::max(fluid_top - bottom, dp);
   const real depth_scale = num.number_or("depth_scale", default_depth, 0.0, 1e5, true);
-  const real beta = num.number_or("speed_of_sound_beta", 10.0, 1.0, 100.0);
+  const real beta = numeric("speed_of_sound_beta");
   real speed_scale = std::sqrt(std::max(g_mag, 1e-3) * depth_scale);
   if (tmodel && !num.has("depth_scale"))
     speed_scale = std::max(speed_scale, std::sqrt(2.0 * std::max(g_mag, 1e-3) * tmodel->max_energy_height));
@@ -737,20 +740,19 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
       cfg.max_viscosity = Fields::check_number(cap, num.at("viscosity_cap"), 0.0, 1e12, true, false);
     }
   }
-  cfg.viscosity_cap_factor = num.number_or("viscosity_cap_factor", 1.0, 0.0, 1e6, true);
-  cfg.shear_rate_floor = num.number_or("shear_rate_floor", 1e-6, 0.0, 1e3, true);
-  cfg.min_dt = num.number_or("min_dt", 1e-8, 0.0, 1.0, true);
+  cfg.viscosity_cap_factor = numeric("viscosity_cap_factor");
+  cfg.shear_rate_floor = numeric("shear_rate_floor");
+  cfg.min_dt = numeric("min_dt");
   cfg.density_floor = num.boolean_or("density_floor", false);
-  cfg.max_dilatancy = num.number_or("max_dilatancy", 0.0, 0.0, 0.5);
+  cfg.max_dilatancy = numeric("max_dilatancy");
   if (num.has("max_dilatancy") && !cfg.density_floor)
     throw SceneError(num.at("max_dilatancy"), "sets how far under rho0 the density floor stands: needs numerics.density_floor = true");
   // Inlets need walls without memory: a DBC wall particle under a buffer that moves over it gains density
   // from the one-sided inflow at the plane and never loses it (its density is floored at rho0), until it
   // throws the new flow off the bed (measured: tests/engine/inlet_test.cpp detaches at t < 0.2 s with dbc).
   const std::string bp_default = setup.inlets.empty() ? "dbc" : "extrapolated";
-  cfg.boundary_pressure = num.string_or("boundary_pressure", bp_default, {"dbc", "extrapolated"}) == "extrapolated"
-                              ? BoundaryPressure::extrapolated
-                              : BoundaryPressure::dbc;
+  cfg.boundary_pressure =
+      boundary_pressure_from_name(num.string_or("boundary_pressure", bp_default, boundary_pressure_names()));
   if (!setup.inlets.empty() && cfg.boundary_pressure == BoundaryPressure::dbc)
     throw SceneError("numerics.boundary_pressure", "must be 'extrapolated' in a scene with inlets (accepted: extrapolated)");
   cfg.boundary_density = num.number_or("boundary_density", setup.materials[0].density, 0.0, 1e5, true);

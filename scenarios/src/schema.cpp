@@ -5,6 +5,7 @@
 
 #include "runout/engine/kernels.hpp"
 #include "runout/engine/rheology.hpp"
+#include "runout/engine/solver.hpp"
 
 namespace runout {
 namespace {
@@ -36,8 +37,15 @@ json material_schema(const RheologyModel& m) {
 json scene_schema() {
   json materials = json::array();
   for (const auto* m : rheology_models()) materials.push_back(material_schema(*m));
-  json numerics = {{"type", "object"},
-                   {"properties", {{"kernel", {{"enum", kernel_names()}, {"default", kernel_names().front()}}}}}};
+  json numerics_props = {{"kernel", {{"enum", kernel_names()}, {"default", kernel_names().front()}}},
+                         {"integrator", {{"enum", integrator_names()}, {"default", "symplectic"}}},
+                         {"density_diffusion", {{"enum", density_diffusion_names()}, {"default", "fourtakas"}}},
+                         {"boundary_pressure", {{"enum", boundary_pressure_names()}}}};
+  for (const auto& p : numerics_parameters()) {
+    numerics_props[p.key] = number_schema(p);
+    if (p.integer) numerics_props[p.key]["type"] = "integer";
+  }
+  json numerics = {{"type", "object"}, {"properties", numerics_props}};
   auto object = json{{"type", "object"}};
   auto array_of_objects = json{{"type", "array"}, {"items", object}};
   return {{"$schema", "https://json-schema.org/draft/2020-12/schema"},

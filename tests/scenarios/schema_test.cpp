@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "runout/engine/rheology.hpp"
+#include "runout/engine/solver.hpp"
 #include "runout/scenarios/scene.hpp"
 #include "runout/scenarios/schema.hpp"
 
@@ -85,5 +86,21 @@ TEST(Schema, ParserEnforcesTheDescribedRanges) {
     json unknown = base;
     unknown["not_a_parameter"] = 1;
     EXPECT_THROW(parse_scene(scene_with(unknown)), SceneError) << m->name;
+  }
+}
+
+// docs/scene-format.md's numerics table is hand-written (its computed defaults need prose): each plain-number
+// row must still state its descriptor's default and accepted range.
+TEST(Schema, DocsNumericsTableAgreesWithTheDescriptors) {
+  const std::string doc = read(kDoc);
+  for (const auto& p : numerics_parameters()) {
+    const std::string head = "| `" + p.key + "` |";
+    const auto at = doc.find(head);
+    ASSERT_NE(at, std::string::npos) << "docs/scene-format.md has no row for numerics." << p.key;
+    const std::string row = doc.substr(at, doc.find('\n', at) - at);
+    const std::string range = std::string(p.lo_open ? "(" : "[") + format_number(p.lo) + ", " + format_number(p.hi) +
+                              (p.hi_open ? ")" : "]");
+    EXPECT_NE(row.find("`" + format_number(p.default_value) + "`"), std::string::npos) << p.key << " default: " << row;
+    EXPECT_NE(row.find(range), std::string::npos) << p.key << " range " << range << ": " << row;
   }
 }

@@ -20,6 +20,7 @@ struct ParameterSpec {
   bool lo_open = false, hi_open = false;
   bool required = false;
   std::string doc;            // one line
+  bool integer = false;       // a whole number (read as one, refused otherwise)
 
   bool accepts(real x) const;
   // "[0, 90) deg", "(0, 1e8] s", "(0, 5]".

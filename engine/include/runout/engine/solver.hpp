@@ -12,6 +12,7 @@
 
 #include "runout/engine/geometry.hpp"
 #include "runout/engine/kernels.hpp"
+#include "runout/engine/parameters.hpp"
 #include "runout/engine/rheology.hpp"
 #include "runout/engine/types.hpp"
 
@@ -63,6 +64,19 @@ struct SolverConfig {
   std::array<bool, 3> periodic{false, false, false};
   std::array<std::array<bool, 2>, 3> outflow{};  // outflow[d][0] low face, [1] high face
 };
+
+// The numerics a scene sets as plain numbers with a fixed default, declared once: the scene parser, the schema
+// and the docs' numerics table read them (engine/src/solver/numerics.cpp). Throws std::invalid_argument for an
+// undeclared key.
+const std::vector<ParameterSpec>& numerics_parameters();
+const ParameterSpec& numerics_parameter(const std::string& key);
+// The named choices of the numerics, by the names a scene gives them.
+const std::vector<std::string>& integrator_names();
+const std::vector<std::string>& density_diffusion_names();
+const std::vector<std::string>& boundary_pressure_names();
+Integrator integrator_from_name(const std::string& name);
+DensityDiffusion density_diffusion_from_name(const std::string& name);
+BoundaryPressure boundary_pressure_from_name(const std::string& name);
 
 // Particle storage: one vector per component (SoA).
 template <int D>

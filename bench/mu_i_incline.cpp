@@ -1,0 +1,122 @@
+// mu(I) on an incline: a uniform granular layer against Bagnold's velocity profile, as a measurement (not a test:
+// the layer had not reached a steady state matching Bagnold when this was written, docs/validation.md "mu(I)").
+//
+//   build/bench/bench_mu_i_incline [--t-end 5] [--trace]
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+#include <CLI/CLI.hpp>
+
+#include "runout/engine/rheology.hpp"
+#include "runout/engine/solver.hpp"
+
+using namespace runout;
+
+namespace {
+
+// Glass beads (Jop et al. 2006, their Fig. 2): mu_s = tan 20.9 deg, mu_2 = tan 32.76 deg, I0 = 0.279.
+constexpr double kMuS = 0.38, kMu2 = 0.64, kI0 = 0.279, kD = 0.5e-3, kPhi = 0.6, kRho = 1500.0;
+
+MaterialParams beads(double regularisation) {
+  MaterialParams m;
+  m.name = "beads";
+  m.rheology = "mu-i";
+  m.density = kRho;
+  m.set("mu_s", kMuS).set("mu_2", kMu2).set("inertial_number_scale", kI0).set("grain_diameter", kD);
+  m.set("solid_fraction", kPhi).set("regularisation", regularisation);
+  return m;
+}
+
+}  // namespace
+
+// A uniform layer H deep on a rough incline of angle theta reaches the steady Bagnold profile
+//   u(z) = (2/3) (I_t / d) sqrt(phi g cos theta) (H^1.5 - (H - z)^1.5),  I_t = I0 (tan theta - mu_s) / (mu_2 - tan theta)
+// (GDR MiDi 2004; Jop et al. 2006): the stress ratio is tan theta at every depth, so I = I_t everywhere.
+// 2D, periodic along the slope (gravity tilted), a no-slip DBC bed, dp = 1 mm, H = 20 dp.
+void run(double t_end, bool trace) {
+  const double theta = 25.0 * kPi / 180.0, g = 9.81, dp = 1e-3, H = 20 * dp, period = 12 * dp;
+  SceneSetup<2> s;
+  s.config.dp = dp;
+  s.config.smoothing_length = 1.5 * dp;
+  s.config.speed_of_sound = 15.0;  // >= 10 x the surface speed (1.2 m/s)
+  s.config.gravity = {g * std::sin(theta), -g * std::cos(theta), 0};
+  s.config.boundary_density = kRho;
+  s.config.periodic = {true, false, false};
+  s.config.domain_min = {0.0, -10 * dp, 0};
+  s.config.domain_max = {period, 1.0, 0};
+  s.materials.push_back(beads(100.0));
+  const double B = s.config.speed_of_sound * s.config.speed_of_sound * kRho / 7.0;
+  for (int a = 0; a < 12; ++a) {
+    for (int l = 0; l < 3; ++l) s.boundary.add(Vec<2>((a + 0.5) * dp, -(l + 0.5) * dp), kRho, kRho * dp * dp, 0, 1);
+    for (int b = 0; b < 20; ++b) {
+      const double z = (b + 0.5) * dp;
+      const double rho = kRho * std::pow(1.0 + kRho * g * std::cos(theta) * (H - z) / B, 1.0 / 7.0);
+      s.fluid.add(Vec<2>((a + 0.5) * dp, z), rho, kRho * dp * dp, 0, 0);
+    }
+  }
+  Solver<2> solver(std::move(s));
+  // Steady after a few diffusion times H^2 / nu (nu ~ 6.5e-4 m^2/s at mid-depth: 0.6 s); the profile is averaged
+  // over the last 0.2 s.
+  const double t_avg = t_end - 0.2;
+  std::vector<double> u_sum(20, 0.0);
+  std::vector<long> u_n(20, 0);
+  double mean_at_avg_start = 0;
+  while (solver.time() < t_end) {
+    solver.step();
+    if (trace && solver.steps() % 5000 == 0) {
+      double m = 0;
+      for (size_t i = 0; i < solver.fluid().size(); ++i) m += solver.fluid().vel[0][i] / solver.fluid().size();
+      std::printf("t %.3f mean %.4f dt %.2e\n", solver.time(), m, solver.last_step().dt);
+    }
+    if (solver.time() < t_avg) continue;
+    const auto& f = solver.fluid();
+    double mean = 0;
+    for (size_t i = 0; i < f.size(); ++i) {
+      const int bin = std::clamp(static_cast<int>(f.pos[1][i] / dp), 0, 19);
+      u_sum[bin] += f.vel[0][i];
+      ++u_n[bin];
+      mean += f.vel[0][i] / f.size();
+    }
+    if (mean_at_avg_start == 0) mean_at_avg_start = mean;
+  }
+  const double i_t = kI0 * (std::tan(theta) - kMuS) / (kMu2 - std::tan(theta));
+  const double scale = 2.0 / 3.0 * i_t / kD * std::sqrt(kPhi * g * std::cos(theta));
+  auto bagnold = [&](double z) { return scale * (std::pow(H, 1.5) - std::pow(std::max(H - z, 0.0), 1.5)); };
+  const double u_top = bagnold(H);
+  double mean_sph = 0, mean_bagnold = 0, shape_sq = 0, sph_top = 0;
+  int bins = 0;
+  for (int k = 0; k < 20; ++k) {
+    if (u_n[k] == 0) continue;
+    const double z = (k + 0.5) * dp, u = u_sum[k] / u_n[k];
+    mean_sph += u;
+    mean_bagnold += bagnold(z);
+    ++bins;
+    sph_top = std::max(sph_top, u);
+  }
+  mean_sph /= bins;
+  mean_bagnold /= bins;
+  for (int k = 0; k < 20; ++k) {
+    if (u_n[k] == 0) continue;
+    const double z = (k + 0.5) * dp, u = u_sum[k] / u_n[k];
+    const double d = u / mean_sph - bagnold(z) / mean_bagnold;
+    shape_sq += d * d;
+  }
+  const double shape_rms = std::sqrt(shape_sq / bins);
+  std::printf("Bagnold: mean u SPH %.4f m/s, analytic %.4f m/s (%.1f %%); surface %.3f / %.3f m/s; shape rms %.3f\n",
+              mean_sph, mean_bagnold, 100 * (mean_sph / mean_bagnold - 1), sph_top, u_top, shape_rms);
+  std::printf("mean speed over the last 0.2 s changed by %.2f %% from its start\n", 100 * (mean_sph / mean_at_avg_start - 1));
+}
+
+int main(int argc, char** argv) {
+  CLI::App app{"mu(I) layer on a 25 degree incline against Bagnold's profile. Example: bench_mu_i_incline --t-end 5"};
+  double t_end = 5.0;
+  bool trace = false;
+  app.add_option("--t-end", t_end, "simulated time [s]")->check(CLI::Range(0.3, 100.0));
+  app.add_flag("--trace", trace, "print the mean speed every 5000 steps");
+  CLI11_PARSE(app, argc, argv);
+  run(t_end, trace);
+  return 0;
+}

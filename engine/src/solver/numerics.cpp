@@ -1,0 +1,68 @@
+// The numerics' descriptors and names (solver.hpp).
+#include <stdexcept>
+
+#include "runout/engine/solver.hpp"
+
+namespace runout {
+namespace {
+
+template <class E>
+E from_name(const std::string& name, const std::vector<std::string>& names, const char* what) {
+  for (size_t k = 0; k < names.size(); ++k)
+    if (names[k] == name) return static_cast<E>(k);
+  std::string accepted;
+  for (const auto& n : names) accepted += (accepted.empty() ? "" : ", ") + n;
+  throw std::invalid_argument(std::string("unknown ") + what + " '" + name + "' (accepted: " + accepted + ")");
+}
+
+}  // namespace
+
+const std::vector<ParameterSpec>& numerics_parameters() {
+  static const std::vector<ParameterSpec> specs = {
+      {"smoothing_ratio", "", 1.5, 1.0, 3.0, false, false, false, "h / dp"},
+      {"verlet_reset_steps", "", 40, 1, 1000, false, false, false, "Verlet: one Euler step every N steps", true},
+      {"cfl", "", 0.2, 0.0, 1.0, true, false, false,
+       "dt = cfl min(dt_force, dt_acoustic), and <= the viscous limit 0.125 h^2 rho / mu_eff,max"},
+      {"density_diffusion_delta", "", 0.1, 0.0, 1.0, false, false, false, "density-diffusion coefficient delta"},
+      {"artificial_viscosity", "", 0.0, 0.0, 10.0, false, false, false, "Monaghan alpha (0 switches it off)"},
+      {"speed_of_sound_beta", "", 10.0, 1.0, 100.0, false, false, false, "beta in the default c0 = beta sqrt(g H)"},
+      {"viscosity_cap_factor", "", 1.0, 0.0, 1e6, true, false, false,
+       "with viscosity_cap auto: cap = factor x 0.125 h rho_min c0 / cfl"},
+      {"shear_rate_floor", "1/s", 1e-6, 0.0, 1e3, true, false, false, "floor on the shear-rate magnitude"},
+      {"min_dt", "s", 1e-8, 0.0, 1.0, true, false, false, "a time step below this stops the run"},
+      {"max_dilatancy", "", 0.0, 0.0, 0.5, false, false, false,
+       "with density_floor: the floor stands this fraction under the tension-floor density"},
+  };
+  return specs;
+}
+
+const ParameterSpec& numerics_parameter(const std::string& key) {
+  for (const auto& p : numerics_parameters())
+    if (p.key == key) return p;
+  throw std::invalid_argument("numerics_parameter: '" + key + "' is not declared");
+}
+
+// In the enums' order.
+const std::vector<std::string>& integrator_names() {
+  static const std::vector<std::string> names = {"symplectic", "verlet"};
+  return names;
+}
+const std::vector<std::string>& density_diffusion_names() {
+  static const std::vector<std::string> names = {"none", "molteni", "fourtakas"};
+  return names;
+}
+const std::vector<std::string>& boundary_pressure_names() {
+  static const std::vector<std::string> names = {"dbc", "extrapolated"};
+  return names;
+}
+Integrator integrator_from_name(const std::string& name) {
+  return from_name<Integrator>(name, integrator_names(), "integrator");
+}
+DensityDiffusion density_diffusion_from_name(const std::string& name) {
+  return from_name<DensityDiffusion>(name, density_diffusion_names(), "density diffusion");
+}
+BoundaryPressure boundary_pressure_from_name(const std::string& name) {
+  return from_name<BoundaryPressure>(name, boundary_pressure_names(), "boundary pressure");
+}
+
+}  // namespace runout
