@@ -7,7 +7,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
@@ -21,8 +20,6 @@
 #include <gdal.h>
 #include <gdal_utils.h>
 #include <ogr_spatialref.h>
-
-#include <openssl/evp.h>
 
 namespace runout::terrain {
 
@@ -604,42 +601,6 @@ void write_depth_map_png(const std::string& path, const Grid& terrain, const Gri
     throw std::runtime_error("write_depth_map_png: cannot write '" + path + "': " + msg);
   }
   close_and_commit(out, tmp, path, "write_depth_map_png");
-}
-
-// ---------------------------------------------------------------------------------------------------------
-// file_sha256
-
-std::string file_sha256(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("file_sha256: cannot open '" + path + "'");
-  std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> ctx(EVP_MD_CTX_new(), EVP_MD_CTX_free);
-  if (!ctx || EVP_DigestInit_ex(ctx.get(), EVP_sha256(), nullptr) != 1)
-    throw std::runtime_error("file_sha256: OpenSSL SHA-256 unavailable");
-  std::vector<char> buf(1 << 16);
-  while (in) {
-    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
-    const std::streamsize got = in.gcount();
-    if (got > 0) EVP_DigestUpdate(ctx.get(), buf.data(), static_cast<size_t>(got));
-  }
-  if (in.bad()) throw std::runtime_error("file_sha256: error reading '" + path + "'");
-  unsigned char digest[EVP_MAX_MD_SIZE];
-  unsigned int len = 0;
-  EVP_DigestFinal_ex(ctx.get(), digest, &len);
-  static const char* hex = "0123456789abcdef";
-  std::string out;
-  for (unsigned int k = 0; k < len; ++k) out += hex[digest[k] >> 4], out += hex[digest[k] & 15];
-  return out;
-}
-
-std::string sha256_hex(const std::string& bytes) {
-  unsigned char digest[EVP_MAX_MD_SIZE];
-  unsigned int len = 0;
-  if (EVP_Digest(bytes.data(), bytes.size(), digest, &len, EVP_sha256(), nullptr) != 1)
-    throw std::runtime_error("sha256_hex: OpenSSL SHA-256 unavailable");
-  static const char* hex = "0123456789abcdef";
-  std::string out;
-  for (unsigned int k = 0; k < len; ++k) out += hex[digest[k] >> 4], out += hex[digest[k] & 15];
-  return out;
 }
 
 }  // namespace runout::terrain
