@@ -198,7 +198,6 @@ class TerrainWatch {
   std::array<double, 2> outflow_first_point_{};
 };
 
-// Rasters (GeoTIFF in the DEM's CRS, aligned with its cells), the map PNG, and the terrain metrics.
 // Per protected zone: inundated area (cells whose centre is inside and whose max depth reaches the threshold),
 // the largest max depth inside, and the first arrival (the earliest time a cell inside reached the threshold;
 // -1 if none did).
@@ -280,13 +279,8 @@ double retained_volume(const terrain::TerrainModel& tm, const terrain::Structure
   return v;
 }
 
-json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::InundationGrid& g,
-                           const OutputSettings& out, const fs::path& dir, const std::vector<Vec<3>>& final_pos,
-                           const std::vector<real>& final_vol) {
-  fs::create_directories(dir / "rasters");
-  terrain::write_geotiff((dir / "rasters" / "max_depth.tif").string(), g.max_depth());
-  terrain::write_geotiff((dir / "rasters" / "max_speed.tif").string(), g.max_speed());
-  terrain::write_geotiff((dir / "rasters" / "deposit_depth.tif").string(), g.depth());
+// The map's outlines: structures in black, protected zones in red, the release in orange.
+std::vector<terrain::MapOverlay> map_overlays(const terrain::TerrainModel& tm) {
   std::vector<terrain::MapOverlay> overlays(3);
   overlays[0].r = 20, overlays[0].g = 20, overlays[0].b = 20;  // structures
   overlays[1].r = 220, overlays[1].g = 40, overlays[1].b = 40;  // protected zones
@@ -302,23 +296,12 @@ json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::Inund
     overlays[0].lines.push_back(line(st.outline, st.kind != terrain::StructureKind::check_dam));
   for (const auto& z : tm.protected_zones) overlays[1].lines.push_back(closed(z.polygon));
   overlays[2].lines.push_back(closed(tm.release_polygon));
-  terrain::write_depth_map_png((dir / "rasters" / "max_depth.png").string(), g.terrain(), g.max_depth(),
-                               out.inundation_threshold, overlays);
-  float max_depth = 0, max_speed = 0;
-  for (float v : g.max_depth().values) max_depth = std::max(max_depth, v);
-  for (float v : g.max_speed().values) max_speed = std::max(max_speed, v);
-  // The deposit: the flow's depth at the end of the run (the study compares its thickness and extent).
-  float deposit_max = 0;
-  size_t deposit_cells = 0;
-  for (float v : g.depth().values)
-    if (!std::isnan(v)) deposit_max = std::max(deposit_max, v), deposit_cells += v >= out.inundation_threshold;
-  json t;
-  t["crs"] = terrain::crs_name(tm.dem.crs_wkt);
-  t["local_origin_m"] = {tm.origin_x, tm.origin_y};
-  t["corridor_area_m2"] = tm.corridor_area;
-  t["modelled_fraction"] = tm.modelled_fraction;
-  t["release_volume_m3"] = tm.release_volume;
-  t["release_depth_m"] = tm.release_depth;
+  return overlays;
+}
+
+// metrics.json's terrain.structures: what each one built, and the flow it holds at the end.
+json structure_metrics(const terrain::TerrainModel& tm, const std::vector<Vec<3>>& final_pos,
+                       const std::vector<real>& final_vol) {
   json ss = json::array();
   for (const auto& st : tm.structures)
     ss.push_back({{"name", st.name},
@@ -332,244 +315,381 @@ json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::Inund
   for (size_t k = 0; k < tm.structures.size(); ++k)
     if (tm.structures[k].kind == terrain::StructureKind::check_dam)
       ss[k]["upstream_volume_m3"] = retained_volume(tm, tm.structures[k], final_pos, final_vol, false);
-  t["structures"] = ss;
-  t["inundation"] = {{"threshold_m", out.inundation_threshold},
-                     {"inundated_area_m2", g.inundated_area(out.inundation_threshold)},
-                     {"max_depth_m", max_depth},
-                     {"max_speed_m_s", max_speed},
-                     {"cell_size_m", g.max_depth().dx},
-                     {"runout_m", runout_distance(tm, g, out.inundation_threshold)},
-                     {"deposit_max_depth_m", deposit_max},
-                     {"deposit_area_m2", deposit_cells * g.depth().cell_area()},
-                     {"rasters", {"rasters/max_depth.tif", "rasters/max_speed.tif", "rasters/deposit_depth.tif",
-                                  "rasters/max_depth.png"}}};
+  return ss;
+}
+
+// metrics.json's terrain.inundation: the rasters' maxima, the inundated area and the deposit (the flow's depth
+// at the end of the run; the study compares its thickness and extent).
+json inundation_metrics(const terrain::TerrainModel& tm, const terrain::InundationGrid& g, const OutputSettings& out) {
+  float max_depth = 0, max_speed = 0;
+  for (float v : g.max_depth().values) max_depth = std::max(max_depth, v);
+  for (float v : g.max_speed().values) max_speed = std::max(max_speed, v);
+  float deposit_max = 0;
+  size_t deposit_cells = 0;
+  for (float v : g.depth().values)
+    if (!std::isnan(v)) deposit_max = std::max(deposit_max, v), deposit_cells += v >= out.inundation_threshold;
+  return {{"threshold_m", out.inundation_threshold},
+          {"inundated_area_m2", g.inundated_area(out.inundation_threshold)},
+          {"max_depth_m", max_depth},
+          {"max_speed_m_s", max_speed},
+          {"cell_size_m", g.max_depth().dx},
+          {"runout_m", runout_distance(tm, g, out.inundation_threshold)},
+          {"deposit_max_depth_m", deposit_max},
+          {"deposit_area_m2", deposit_cells * g.depth().cell_area()},
+          {"rasters", {"rasters/max_depth.tif", "rasters/max_speed.tif", "rasters/deposit_depth.tif",
+                       "rasters/max_depth.png"}}};
+}
+
+// OUT/rasters (GeoTIFF in the DEM's CRS, aligned with its cells, and the map PNG), and the terrain metrics.
+json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::InundationGrid& g,
+                           const OutputSettings& out, const fs::path& dir, const std::vector<Vec<3>>& final_pos,
+                           const std::vector<real>& final_vol) {
+  fs::create_directories(dir / "rasters");
+  terrain::write_geotiff((dir / "rasters" / "max_depth.tif").string(), g.max_depth());
+  terrain::write_geotiff((dir / "rasters" / "max_speed.tif").string(), g.max_speed());
+  terrain::write_geotiff((dir / "rasters" / "deposit_depth.tif").string(), g.depth());
+  terrain::write_depth_map_png((dir / "rasters" / "max_depth.png").string(), g.terrain(), g.max_depth(),
+                               out.inundation_threshold, map_overlays(tm));
+  json t;
+  t["crs"] = terrain::crs_name(tm.dem.crs_wkt);
+  t["local_origin_m"] = {tm.origin_x, tm.origin_y};
+  t["corridor_area_m2"] = tm.corridor_area;
+  t["modelled_fraction"] = tm.modelled_fraction;
+  t["release_volume_m3"] = tm.release_volume;
+  t["release_depth_m"] = tm.release_depth;
+  t["structures"] = structure_metrics(tm, final_pos, final_vol);
+  t["inundation"] = inundation_metrics(tm, g, out);
   t["protected_zones"] = zone_exposure(tm, g, out.inundation_threshold);
   return t;
 }
 
+// What a run records as it goes, written to OUT/series at the end: run.csv (energy, speed, front and mass at
+// every sample), one table per monitor, the final surface; and the largest excess of kinetic energy over the
+// energy released and brought in (<= 0 up to noise).
 template <int D>
-RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOptions& opt) {
-  using clock = std::chrono::steady_clock;
-  RunSummary sum;
-  if (opt.threads > 0) omp_set_num_threads(opt.threads);
-  fs::create_directories(opt.out_dir / "series");
-  if (opt.snapshots) fs::create_directories(opt.out_dir / "snapshots");
-
-  Solver<D> solver(setup);
-  const size_t n_fluid0 = solver.fluid().size();
-  const size_t n_bound = solver.boundary().size();
-  std::ostringstream series;
-  series << std::setprecision(9);
-  series << "t,dt,kinetic_energy,potential_energy_released,max_speed,front_x,fluid_mass,outflow_mass,fluid_particles,"
+class RunSeries {
+ public:
+  // Throws SceneError("monitors") for a monitor the solver cannot place.
+  RunSeries(const Scene& scene, const Solver<D>& solver) : scene_(scene), solver_(solver), rows_(scene.monitors.size()) {
+    run_ << std::setprecision(9);
+    run_ << "t,dt,kinetic_energy,potential_energy_released,max_speed,front_x,fluid_mass,outflow_mass,fluid_particles,"
             "active_boundary\n";
-  auto sample = [&](const StepStats& st) {
-    const auto e = solver.energy();
-    const auto m = solver.mass_balance();
-    series << solver.time() << ',' << st.dt << ',' << e.kinetic << ',' << e.potential_released << ','
-           << st.max_speed << ',' << front_position(solver.fluid()) << ',' << static_cast<double>(m.total_current())
-           << ',' << static_cast<double>(m.total_outflow()) << ',' << solver.fluid().size() << ','
-           << st.active_boundary << '\n';
-  };
-
-  const real snap_dt = opt.snapshots ? (scene.output.snapshot_interval > 0 ? scene.output.snapshot_interval
-                                                                           : scene.duration / 20.0)
-                                     : 0.0;
-  int snap_index = 0;
-  real next_snap = 0, next_sample = 0;
-  real max_ke_excess = -1e300;  // max over samples of KE - PE released - KE brought in (<= 0 up to noise)
-  const auto t0 = clock::now();
-  auto last_progress = t0;
-  long particle_steps = 0;
-  TerrainWatch<D> watch(scene.terrain.get(), scene.output.inundation_threshold);
-  // Monitors: each writes series/<type>_<name>.csv and its summary into metrics.json.
-  std::vector<std::unique_ptr<Monitor<D>>> monitors;
-  std::vector<std::ostringstream> monitor_rows(scene.monitors.size());
-  for (size_t k = 0; k < scene.monitors.size(); ++k) {
-    try {
-      monitors.push_back(make_monitor<D>(scene.monitors[k], solver));
-    } catch (const std::invalid_argument& e) {
-      throw SceneError("monitors", e.what());
+    for (size_t k = 0; k < scene.monitors.size(); ++k) {
+      try {
+        monitors_.push_back(make_monitor<D>(scene.monitors[k], solver));
+      } catch (const std::invalid_argument& e) {
+        throw SceneError("monitors", e.what());
+      }
+      rows_[k] << std::setprecision(9) << "t";
+      for (const auto& c : monitors_[k]->columns()) rows_[k] << ',' << c;
+      rows_[k] << '\n';
     }
-    monitor_rows[k] << std::setprecision(9) << "t";
-    for (const auto& c : monitors[k]->columns()) monitor_rows[k] << ',' << c;
-    monitor_rows[k] << '\n';
   }
-  auto sample_monitors = [&]() {
-    for (size_t k = 0; k < monitors.size(); ++k) {
-      monitor_rows[k] << solver.time();
-      for (real v : monitors[k]->sample(solver)) monitor_rows[k] << ',' << v;
-      monitor_rows[k] << '\n';
-    }
-  };
-  size_t leaked = 0;
-  try {
-    if (watch.active()) {
-      watch.set_released_mass(static_cast<double>(solver.mass_balance().total_initial()));
-      watch.check(solver, 0.0);
-      watch.update(solver.fluid(), solver.materials(), solver.time());
-    }
-    if (opt.snapshots) {
-      write_vtp(opt.out_dir / "snapshots" / "snapshot_0000.vtp", solver);
-      ++snap_index;
-      next_snap = snap_dt;
-    }
-    sample(solver.last_step());
-    sample_monitors();
-    next_sample = scene.output.series_interval;
-    while (solver.time() < scene.duration) {
-      if (opt.stop && opt.stop->load()) {
-        sum.status = "stopped";
-        break;
-      }
-      particle_steps += static_cast<long>(solver.fluid().size());
-      const StepStats& st = solver.step();
-      // A particle moves well under dp in 10 steps (CFL), so it cannot cross a wall between two checks.
-      if (watch.active() && solver.steps() % 10 == 0) watch.check(solver, solver.time());
-      for (auto& mon : monitors) mon->after_step(solver);
-      if (solver.time() >= next_sample - 1e-12) {
-        sample_monitors();
-        if (watch.active()) watch.update(solver.fluid(), solver.materials(), solver.time());
-        sample(st);
-        const auto e = solver.energy();
-        max_ke_excess = std::max(max_ke_excess, e.kinetic - e.potential_released - e.inflow_kinetic);
-        next_sample += scene.output.series_interval;
-      }
-      if (opt.snapshots && solver.time() >= next_snap - 1e-12) {
-        std::ostringstream name;
-        name << "snapshot_" << std::setw(4) << std::setfill('0') << snap_index++ << ".vtp";
-        write_vtp(opt.out_dir / "snapshots" / name.str(), solver);
-        next_snap += snap_dt;
-      }
-      const auto now = clock::now();
-      if (opt.on_progress && now - last_progress > std::chrono::milliseconds(250)) {
-        last_progress = now;
-        opt.on_progress({solver.time(), scene.duration, solver.steps(),
-                         std::chrono::duration<double>(now - t0).count(), solver.fluid().size()});
-      }
-    }
-    if (sum.status.empty()) sum.status = "completed";
-  } catch (const SimulationError& e) {
-    sum.status = "failed";
-    sum.error = e.what();
-    // A blow-up of a cohesionless flow without the density floor: say what fixed the known case.
-    if (!solver.config().density_floor &&
-        (e.cause == SimulationError::Cause::non_finite || e.cause == SimulationError::Cause::dt_floor)) {
-      bool floored_material = false;
-      for (const auto& mat : solver.materials()) floored_material = floored_material || mat.rheology == "friction-hbp";
-      if (floored_material)
-        sum.error += " (a friction material's density can drift far under rho0 without numerics.density_floor = true; "
-                     "see docs/tradeoff.md, \"density floor\")";
-    }
-    if (e.cause == SimulationError::Cause::leak) leaked = e.leaked_particles;
+  void after_step() {
+    for (auto& mon : monitors_) mon->after_step(solver_);
   }
-  if (watch.active()) watch.update(solver.fluid(), solver.materials(), solver.time());
-  sum.wall_seconds = std::chrono::duration<double>(clock::now() - t0).count();
-  sum.steps = solver.steps();
-  sum.simulated_time = solver.time();
-  sum.particle_steps_per_second = sum.wall_seconds > 0 ? particle_steps / sum.wall_seconds : 0;
-  if (opt.on_progress)
-    opt.on_progress({solver.time(), scene.duration, solver.steps(), sum.wall_seconds, solver.fluid().size()});
-
-  // Final surface profile.
-  {
+  void sample(const StepStats& st) {
+    const auto e = solver_.energy();
+    const auto m = solver_.mass_balance();
+    run_ << solver_.time() << ',' << st.dt << ',' << e.kinetic << ',' << e.potential_released << ',' << st.max_speed
+         << ',' << front_position(solver_.fluid()) << ',' << static_cast<double>(m.total_current()) << ','
+         << static_cast<double>(m.total_outflow()) << ',' << solver_.fluid().size() << ',' << st.active_boundary << '\n';
+  }
+  void sample_monitors() {
+    for (size_t k = 0; k < monitors_.size(); ++k) {
+      rows_[k] << solver_.time();
+      for (real v : monitors_[k]->sample(solver_)) rows_[k] << ',' << v;
+      rows_[k] << '\n';
+    }
+  }
+  void track_energy() {
+    const auto e = solver_.energy();
+    max_ke_excess_ = std::max(max_ke_excess_, e.kinetic - e.potential_released - e.inflow_kinetic);
+  }
+  real max_ke_excess() const { return max_ke_excess_; }
+  void write(const fs::path& dir) const {
     std::ostringstream prof;
     prof << std::setprecision(9) << "x,surface_height\n";
-    for (const auto& [x, z] : surface_profile<D>(solver.fluid(), scene.dp)) prof << x << ',' << z << '\n';
-    write_atomically(opt.out_dir / "series" / "final_surface.csv", prof.str());
+    for (const auto& [x, z] : surface_profile<D>(solver_.fluid(), scene_.dp)) prof << x << ',' << z << '\n';
+    write_atomically(dir / "final_surface.csv", prof.str());
+    write_atomically(dir / "run.csv", run_.str());
+    for (size_t k = 0; k < monitors_.size(); ++k)
+      write_atomically(dir / series_file_name(scene_.monitors[k]), rows_[k].str());
   }
-  write_atomically(opt.out_dir / "series" / "run.csv", series.str());
-  for (size_t k = 0; k < monitors.size(); ++k)
-    write_atomically(opt.out_dir / "series" / series_file_name(scene.monitors[k]), monitor_rows[k].str());
+  // metrics.json's monitors: each one's summary.
+  json summaries() const {
+    json mons = json::array();
+    for (size_t k = 0; k < monitors_.size(); ++k) {
+      json one = {{"name", scene_.monitors[k].name}, {"type", scene_.monitors[k].type}};
+      for (const auto& [key, value] : monitors_[k]->summary()) one[key] = value;
+      mons.push_back(one);
+    }
+    return mons;
+  }
 
-  const auto mb = solver.mass_balance();
-  const auto e = solver.energy();
+ private:
+  const Scene& scene_;
+  const Solver<D>& solver_;
+  std::ostringstream run_;
+  std::vector<std::unique_ptr<Monitor<D>>> monitors_;
+  std::vector<std::ostringstream> rows_;
+  real max_ke_excess_ = -1e300;
+};
+
+// OUT/snapshots/snapshot_NNNN.vtp at the start and every output.snapshot_interval (default: duration / 20),
+// when the run was asked for snapshots.
+template <int D>
+class Snapshots {
+ public:
+  Snapshots(const Scene& scene, const RunOptions& opt)
+      : dir_(opt.out_dir / "snapshots"), on_(opt.snapshots),
+        interval_(opt.snapshots ? (scene.output.snapshot_interval > 0 ? scene.output.snapshot_interval
+                                                                      : scene.duration / 20.0)
+                                : 0.0) {}
+  void first(const Solver<D>& s) {
+    if (!on_) return;
+    write_vtp(dir_ / "snapshot_0000.vtp", s);
+    ++index_;
+    next_ = interval_;
+  }
+  void after_step(const Solver<D>& s) {
+    if (!on_ || s.time() < next_ - 1e-12) return;
+    std::ostringstream name;
+    name << "snapshot_" << std::setw(4) << std::setfill('0') << index_++ << ".vtp";
+    write_vtp(dir_ / name.str(), s);
+    next_ += interval_;
+  }
+
+ private:
+  fs::path dir_;
+  bool on_;
+  real interval_;
+  int index_ = 0;
+  real next_ = 0;
+};
+
+// The run's wall clock, and opt.on_progress about every 0.25 s of it.
+class Progress {
+ public:
+  using clock = std::chrono::steady_clock;
+  explicit Progress(const RunOptions& opt) : opt_(opt), t0_(clock::now()), last_(t0_) {}
+  double elapsed() const { return std::chrono::duration<double>(clock::now() - t0_).count(); }
+  template <int D>
+  void during(const Solver<D>& s, real duration) {
+    const auto now = clock::now();
+    if (opt_.on_progress && now - last_ > std::chrono::milliseconds(250)) {
+      last_ = now;
+      opt_.on_progress({s.time(), duration, s.steps(), std::chrono::duration<double>(now - t0_).count(), s.fluid().size()});
+    }
+  }
+  template <int D>
+  void at_end(const Solver<D>& s, real duration, double wall_seconds) const {
+    if (opt_.on_progress) opt_.on_progress({s.time(), duration, s.steps(), wall_seconds, s.fluid().size()});
+  }
+
+ private:
+  const RunOptions& opt_;
+  clock::time_point t0_, last_;
+};
+
+// Steps the solver to the scene's end: "completed", or "stopped" when opt.stop is set. Terrain runs check for
+// misplaced particles every 10 steps; monitors, run.csv and the inundation grid are sampled every
+// series_interval. Throws SimulationError when the run fails.
+template <int D>
+std::string step_to_end(const Scene& scene, const RunOptions& opt, Solver<D>& solver, RunSeries<D>& series,
+                        TerrainWatch<D>& watch, Progress& progress, long& particle_steps) {
+  if (watch.active()) {
+    watch.set_released_mass(static_cast<double>(solver.mass_balance().total_initial()));
+    watch.check(solver, 0.0);
+    watch.update(solver.fluid(), solver.materials(), solver.time());
+  }
+  Snapshots<D> snapshots(scene, opt);
+  snapshots.first(solver);
+  series.sample(solver.last_step());
+  series.sample_monitors();
+  real next_sample = scene.output.series_interval;
+  while (solver.time() < scene.duration) {
+    if (opt.stop && opt.stop->load()) return "stopped";
+    particle_steps += static_cast<long>(solver.fluid().size());
+    const StepStats& st = solver.step();
+    // A particle moves well under dp in 10 steps (CFL), so it cannot cross a wall between two checks.
+    if (watch.active() && solver.steps() % 10 == 0) watch.check(solver, solver.time());
+    series.after_step();
+    if (solver.time() >= next_sample - 1e-12) {
+      series.sample_monitors();
+      if (watch.active()) watch.update(solver.fluid(), solver.materials(), solver.time());
+      series.sample(st);
+      series.track_energy();
+      next_sample += scene.output.series_interval;
+    }
+    snapshots.after_step(solver);
+    progress.during(solver, scene.duration);
+  }
+  return "completed";
+}
+
+// The failed run's error: the engine's message, and for a blow-up of a cohesionless flow without the density
+// floor what fixed the known case.
+template <int D>
+std::string failure_message(const SimulationError& e, const Solver<D>& solver) {
+  std::string error = e.what();
+  if (!solver.config().density_floor &&
+      (e.cause == SimulationError::Cause::non_finite || e.cause == SimulationError::Cause::dt_floor)) {
+    bool floored_material = false;
+    for (const auto& mat : solver.materials()) floored_material = floored_material || mat.rheology == "friction-hbp";
+    if (floored_material)
+      error += " (a friction material's density can drift far under rho0 without numerics.density_floor = true; "
+               "see docs/tradeoff.md, \"density floor\")";
+  }
+  return error;
+}
+
+// metrics.json's mass balance: initial, final, out and in, and the relative error of their sum.
+json mass_metrics(const MassBalance& mb) {
+  const long double m0 = mb.total_initial(), m1 = mb.total_current(), mo = mb.total_outflow(),
+                    mi = mb.total_inflow();
+  return {{"initial_kg", static_cast<double>(m0)},
+          {"final_kg", static_cast<double>(m1)},
+          {"outflow_kg", static_cast<double>(mo)},
+          {"inflow_kg", static_cast<double>(mi)},
+          {"relative_error", m0 + mi > 0 ? static_cast<double>((m1 + mo - m0 - mi) / (m0 + mi)) : 0.0}};
+}
+
+// Is the flow at rest? Percentiles of particle speed at the end: a few particles running away (isolated ones
+// carry no pressure, so no friction) should not hide a bulk that has stopped, nor the reverse.
+template <int D>
+json final_speed_metrics(const ParticleArrays<D>& f) {
+  std::vector<real> speed(f.size());
+  for (size_t i = 0; i < f.size(); ++i) {
+    real v2 = 0;
+    for (int d = 0; d < D; ++d) v2 += f.vel[d][i] * f.vel[d][i];
+    speed[i] = std::sqrt(v2);
+  }
+  std::sort(speed.begin(), speed.end());
+  auto pct = [&](double q) { return speed.empty() ? 0.0 : speed[static_cast<size_t>(q * (speed.size() - 1))]; };
+  const size_t moving = speed.end() - std::upper_bound(speed.begin(), speed.end(), 0.05);
+  return {{"p50_m_s", pct(0.5)},
+          {"p95_m_s", pct(0.95)},
+          {"max_m_s", pct(1.0)},
+          {"moving_fraction", speed.empty() ? 0.0 : static_cast<double>(moving) / speed.size()}};
+}
+
+// metrics.json's settings: the numerics the run resolved to.
+template <int D>
+json settings_metrics(const Solver<D>& solver) {
   const auto& cfg = solver.config();
+  return {{"dp_m", cfg.dp},
+          {"smoothing_length_m", cfg.smoothing_length},
+          {"kernel", std::string(kernel_name(cfg.kernel))},
+          {"integrator", cfg.integrator == Integrator::symplectic ? "symplectic" : "verlet"},
+          {"speed_of_sound_m_s", cfg.speed_of_sound},
+          {"cfl", cfg.cfl},
+          {"artificial_viscosity", cfg.artificial_viscosity},
+          {"density_diffusion_delta", cfg.density_diffusion_delta},
+          {"viscosity_cap_pa_s", solver.max_viscosity()},
+          {"shear_rate_floor_1_s", cfg.shear_rate_floor},
+          {"density_floor", cfg.density_floor},
+          {"max_dilatancy", cfg.max_dilatancy}};
+}
+
+// What the cost model predicts from (docs/tradeoff.md): stored with the run so `runout calibrate` can refit.
+json cost_feature_metrics(const Scene& scene) {
+  const CostFeatures cf = cost_features(scene);
+  return {{"fluid", cf.fluid},           {"fluid_mean", cf.fluid_mean}, {"boundary", cf.boundary},
+          {"neighbours", cf.neighbours}, {"passes", cf.passes},         {"duration_s", cf.duration},
+          {"dt0_s", cf.dt0}};
+}
+
+// Particle counts a run reports: at the start, and the leaked ones when it failed on a leak.
+struct ParticleCounts {
+  size_t fluid_initial = 0, boundary = 0, leaked = 0;
+};
+
+// metrics.json without the monitors and the terrain.
+template <int D>
+json run_metrics(const Scene& scene, const Solver<D>& solver, const RunSummary& sum, const ParticleCounts& counts,
+                 real max_ke_excess) {
+  const auto e = solver.energy();
   json m;
   m["scene"] = scene.name;
   m["status"] = sum.status;
   if (!sum.error.empty()) m["error"] = sum.error;
   m["dimensions"] = D;
-  m["particles"] = {{"fluid_initial", n_fluid0}, {"fluid_final", solver.fluid().size()}, {"boundary", n_bound}};
+  m["particles"] = {{"fluid_initial", counts.fluid_initial}, {"fluid_final", solver.fluid().size()},
+                    {"boundary", counts.boundary}};
   m["steps"] = sum.steps;
   m["simulated_time_s"] = sum.simulated_time;
   m["wall_time_s"] = sum.wall_seconds;
   m["particle_steps_per_s"] = sum.particle_steps_per_second;
   m["threads"] = omp_get_max_threads();
-  {
-    // What the cost model predicts from (docs/tradeoff.md): stored with the run so `runout calibrate` can refit.
-    const CostFeatures cf = cost_features(scene);
-    m["cost_features"] = {{"fluid", cf.fluid},           {"fluid_mean", cf.fluid_mean}, {"boundary", cf.boundary},
-                          {"neighbours", cf.neighbours}, {"passes", cf.passes},         {"duration_s", cf.duration},
-                          {"dt0_s", cf.dt0}};
-  }
+  m["cost_features"] = cost_feature_metrics(scene);
   m["dt"] = {{"min_s", solver.min_dt_seen() < 1e299 ? solver.min_dt_seen() : 0.0}, {"last_s", solver.last_step().dt}};
   m["max_mach"] = solver.max_mach();
   if (solver.max_mach() > 0.1)
     m["warnings"].push_back("max Mach number " + std::to_string(solver.max_mach()) +
                             " exceeds 0.1: raise numerics.speed_of_sound");
-  const long double m0 = mb.total_initial(), m1 = mb.total_current(), mo = mb.total_outflow(),
-                    mi = mb.total_inflow();
-  m["mass"] = {{"initial_kg", static_cast<double>(m0)},
-               {"final_kg", static_cast<double>(m1)},
-               {"outflow_kg", static_cast<double>(mo)},
-               {"inflow_kg", static_cast<double>(mi)},
-               {"relative_error", m0 + mi > 0 ? static_cast<double>((m1 + mo - m0 - mi) / (m0 + mi)) : 0.0}};
-  m["leaks"] = leaked;
+  m["mass"] = mass_metrics(solver.mass_balance());
+  m["leaks"] = counts.leaked;
   m["energy"] = {{"kinetic_final_j", e.kinetic},
                  {"potential_released_j", e.potential_released},
                  {"max_kinetic_minus_released_j", max_ke_excess}};
   m["front_x_m"] = front_position(solver.fluid());
-  {
-    // Is the flow at rest? Percentiles of particle speed at the end: a few particles running away (isolated
-    // ones carry no pressure, so no friction) should not hide a bulk that has stopped, nor the reverse.
-    const auto& f = solver.fluid();
-    std::vector<real> speed(f.size());
-    for (size_t i = 0; i < f.size(); ++i) {
-      real v2 = 0;
-      for (int d = 0; d < D; ++d) v2 += f.vel[d][i] * f.vel[d][i];
-      speed[i] = std::sqrt(v2);
-    }
-    std::sort(speed.begin(), speed.end());
-    auto pct = [&](double q) { return speed.empty() ? 0.0 : speed[static_cast<size_t>(q * (speed.size() - 1))]; };
-    const size_t moving = speed.end() - std::upper_bound(speed.begin(), speed.end(), 0.05);
-    m["final_speed"] = {{"p50_m_s", pct(0.5)},
-                        {"p95_m_s", pct(0.95)},
-                        {"max_m_s", pct(1.0)},
-                        {"moving_fraction", speed.empty() ? 0.0 : static_cast<double>(moving) / speed.size()}};
-  }
-  m["settings"] = {{"dp_m", cfg.dp},
-                   {"smoothing_length_m", cfg.smoothing_length},
-                   {"kernel", std::string(kernel_name(cfg.kernel))},
-                   {"integrator", cfg.integrator == Integrator::symplectic ? "symplectic" : "verlet"},
-                   {"speed_of_sound_m_s", cfg.speed_of_sound},
-                   {"cfl", cfg.cfl},
-                   {"artificial_viscosity", cfg.artificial_viscosity},
-                   {"density_diffusion_delta", cfg.density_diffusion_delta},
-                   {"viscosity_cap_pa_s", solver.max_viscosity()},
-                   {"shear_rate_floor_1_s", cfg.shear_rate_floor},
-                   {"density_floor", cfg.density_floor},
-                   {"max_dilatancy", cfg.max_dilatancy}};
+  m["final_speed"] = final_speed_metrics(solver.fluid());
+  m["settings"] = settings_metrics(solver);
   json tags = json::object();
   for (size_t k = 1; k < scene.boundary_tags.size(); ++k) tags[std::to_string(k)] = scene.boundary_tags[k];
   m["boundary_tags"] = tags;
-  json mons = json::array();
-  for (size_t k = 0; k < monitors.size(); ++k) {
-    json one = {{"name", scene.monitors[k].name}, {"type", scene.monitors[k].type}};
-    for (const auto& [key, value] : monitors[k]->summary()) one[key] = value;
-    mons.push_back(one);
+  return m;
+}
+
+// metrics.json's terrain (rasters written to OUT/rasters), with a warning when flow left the corridor in a run
+// that did not fail for it.
+template <int D>
+void add_terrain_metrics(json& m, const Scene& scene, const TerrainWatch<D>& watch, const fs::path& out_dir,
+                         const std::string& status) {
+  m["terrain"] = write_terrain_outputs(*scene.terrain, watch.grid(), scene.output, out_dir, watch.positions(),
+                                       watch.volumes());
+  m["terrain"]["corridor_outflow"] = watch.corridor_outflow();
+  if (watch.outflow_particles() > 0 && status != "failed") {
+    std::ostringstream w;
+    w.precision(3);
+    w << watch.outflow_particles() << " particle(s) (" << 100.0 * watch.outflow_fraction()
+      << " % of the released mass) left the modelled corridor and were removed: its edge cut the flow there";
+    m["warnings"].push_back(w.str());
   }
-  m["monitors"] = mons;
-  if (watch.active()) {
-    m["terrain"] = write_terrain_outputs(*scene.terrain, watch.grid(), scene.output, opt.out_dir, watch.positions(), watch.volumes());
-    m["terrain"]["corridor_outflow"] = watch.corridor_outflow();
-    if (watch.outflow_particles() > 0 && sum.status != "failed") {
-      std::ostringstream w;
-      w.precision(3);
-      w << watch.outflow_particles() << " particle(s) (" << 100.0 * watch.outflow_fraction()
-        << " % of the released mass) left the modelled corridor and were removed: its edge cut the flow there";
-      m["warnings"].push_back(w.str());
-    }
+}
+
+template <int D>
+RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOptions& opt) {
+  if (opt.threads > 0) omp_set_num_threads(opt.threads);
+  fs::create_directories(opt.out_dir / "series");
+  if (opt.snapshots) fs::create_directories(opt.out_dir / "snapshots");
+
+  Solver<D> solver(setup);
+  ParticleCounts counts{solver.fluid().size(), solver.boundary().size()};
+  Progress progress(opt);
+  TerrainWatch<D> watch(scene.terrain.get(), scene.output.inundation_threshold);
+  RunSeries<D> series(scene, solver);
+  RunSummary sum;
+  long particle_steps = 0;
+  try {
+    sum.status = step_to_end(scene, opt, solver, series, watch, progress, particle_steps);
+  } catch (const SimulationError& e) {
+    sum.status = "failed";
+    sum.error = failure_message(e, solver);
+    if (e.cause == SimulationError::Cause::leak) counts.leaked = e.leaked_particles;
   }
+  if (watch.active()) watch.update(solver.fluid(), solver.materials(), solver.time());
+  sum.wall_seconds = progress.elapsed();
+  sum.steps = solver.steps();
+  sum.simulated_time = solver.time();
+  sum.particle_steps_per_second = sum.wall_seconds > 0 ? particle_steps / sum.wall_seconds : 0;
+  progress.at_end(solver, scene.duration, sum.wall_seconds);
+
+  series.write(opt.out_dir / "series");
+  json m = run_metrics(scene, solver, sum, counts, series.max_ke_excess());
+  m["monitors"] = series.summaries();
+  if (watch.active()) add_terrain_metrics(m, scene, watch, opt.out_dir, sum.status);
   sum.metrics_json = m.dump(2);
   write_atomically(opt.out_dir / "metrics.json", sum.metrics_json + "\n");
   return sum;

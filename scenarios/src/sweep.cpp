@@ -7,8 +7,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "runout/common/sha256.hpp"
 #include "runout/scenarios/scene.hpp"
-#include "runout/terrain/raster.hpp"
 
 #ifndef RUNOUT_VERSION
 #define RUNOUT_VERSION "unknown"
@@ -217,11 +217,11 @@ Manifest make_manifest(const std::string& resolved_scene_json, const std::filesy
   if (scene.contains("terrain") && scene["terrain"].contains("dem") && scene["terrain"]["dem"].is_string()) {
     std::filesystem::path dem = scene["terrain"]["dem"].get<std::string>();
     if (dem.is_relative() && !base_dir.empty()) dem = base_dir / dem;
-    m["dem_sha256"] = std::filesystem::exists(dem) ? terrain::file_sha256(dem.string()) : "missing";
+    m["dem_sha256"] = std::filesystem::exists(dem) ? file_sha256(dem.string()) : "missing";
   }
   Manifest out;
   out.json = m.dump();
-  out.hash = terrain::sha256_hex(out.json);
+  out.hash = sha256_hex(out.json);
   return out;
 }
 

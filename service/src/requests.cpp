@@ -12,7 +12,7 @@
 #include "runout/scenarios/cost_model.hpp"
 #include "runout/scenarios/scene.hpp"
 #include "runout/scenarios/sweep.hpp"
-#include "runout/terrain/raster.hpp"
+#include "runout/common/sha256.hpp"
 
 namespace runout::service {
 
@@ -368,7 +368,7 @@ NewScene parse_scene_request(const std::string& body, const Limits& limits) {
     }
   }
   out.scene_json = scene.dump();
-  out.content_hash = terrain::sha256_hex(out.scene_json);
+  out.content_hash = sha256_hex(out.scene_json);
   out.name = scene.value("name", std::string("scene"));
   return out;
 }

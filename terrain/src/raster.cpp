@@ -7,7 +7,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
@@ -21,8 +20,6 @@
 #include <gdal.h>
 #include <gdal_utils.h>
 #include <ogr_spatialref.h>
-
-#include <openssl/evp.h>
 
 namespace runout::terrain {
 
@@ -277,6 +274,97 @@ std::string crs_name(const std::string& crs_wkt) {
 // ---------------------------------------------------------------------------------------------------------
 // load_dem
 
+namespace {
+
+void check_geotransform(const double gt[6], const std::string& path) {
+  if (gt[2] != 0.0 || gt[4] != 0.0)
+    dem_error("'" + path + "' has a rotated geotransform, which is not supported; warp it north-up first");
+  if (gt[1] == 0.0 || gt[5] == 0.0 || !std::isfinite(gt[1]) || !std::isfinite(gt[5]))
+    dem_error("'" + path + "' has a degenerate geotransform (zero cell size)");
+}
+
+// The CRS the options name: it must be projected, in metres.
+std::unique_ptr<OGRSpatialReference> named_crs(const std::string& target_crs) {
+  auto target = std::make_unique<OGRSpatialReference>();
+  if (target->SetFromUserInput(target_crs.c_str()) != OGRERR_NONE)
+    crs_error("target CRS '" + target_crs + "' is not understood: " + last_gdal_error());
+  target->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  if (!target->IsProjected()) crs_error("target CRS '" + target_crs + "' is not a projected CRS");
+  const char* unit = nullptr;
+  if (!is_metre(target->GetLinearUnits(&unit)))
+    crs_error("target CRS '" + target_crs + "' has linear unit '" + (unit ? unit : "?") + "', not metres");
+  return target;
+}
+
+// UTM zone of the raster centre, in WGS 84 longitude/latitude.
+std::unique_ptr<OGRSpatialReference> utm_of_centre(const OGRSpatialReference& src_srs, const double gt[6], int nx,
+                                                   int ny, const std::string& path) {
+  OGRSpatialReference wgs84;
+  wgs84.SetWellKnownGeogCS("WGS84");
+  wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&src_srs, &wgs84));
+  double cx = gt[0] + gt[1] * nx / 2.0, cy = gt[3] + gt[5] * ny / 2.0;
+  if (!ct || !ct->Transform(1, &cx, &cy))
+    dem_error("cannot locate the centre of '" + path + "' in WGS 84: " + last_gdal_error());
+  auto target = std::make_unique<OGRSpatialReference>();
+  const std::string utm = utm_crs_for(cx, cy);
+  if (target->SetFromUserInput(utm.c_str()) != OGRERR_NONE) dem_error("cannot build " + utm + ": " + last_gdal_error());
+  target->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  return target;
+}
+
+// Where the result must live: the named CRS, the source's own (nullptr) when it is projected in metres, or
+// the UTM zone of a geographic DEM's centre.
+std::unique_ptr<OGRSpatialReference> working_crs(const OGRSpatialReference& src_srs, const DemOptions& options,
+                                                 const double gt[6], int nx, int ny, const std::string& path) {
+  if (!options.target_crs.empty()) return named_crs(options.target_crs);
+  if (src_srs.IsProjected()) {
+    const char* unit = nullptr;
+    const double to_m = src_srs.GetLinearUnits(&unit);
+    if (!is_metre(to_m))
+      dem_error("'" + path + "' is in a projected CRS (" + srs_label(src_srs) + ") whose linear unit is '" +
+                (unit ? unit : "?") + "' (" + std::to_string(to_m) +
+                " m), not metres; set a metre target CRS to reproject it");
+    return nullptr;
+  }
+  if (src_srs.IsGeographic()) return utm_of_centre(src_srs, gt, nx, ny, path);
+  dem_error("'" + path + "' has a CRS that is neither geographic nor projected (" + srs_label(src_srs) +
+            "); set a target CRS");
+}
+
+// Warp (reprojection and/or resampling) into memory, Float32 so NaN can be the nodata value.
+Grid warp_band1(GDALDatasetH src, const OGRSpatialReference& dst_srs, double resolution, const std::string& path) {
+  Argv args{"-of", "MEM", "-ot", "Float32", "-r", "bilinear", "-t_srs", srs_to_wkt(dst_srs),
+            "-dstnodata", "nan", "-et", "0"};
+  if (resolution > 0.0) {
+    char res[64];
+    std::snprintf(res, sizeof res, "%.17g", resolution);
+    args.add("-tr");
+    args.add(res);
+    args.add(res);
+  }
+  std::unique_ptr<GDALWarpAppOptions, decltype(&GDALWarpAppOptionsFree)> wopts(
+      GDALWarpAppOptionsNew(args.get(), nullptr), &GDALWarpAppOptionsFree);
+  if (!wopts) dem_error("internal error: GDAL rejected the warp options: " + last_gdal_error());
+  GDALDatasetH srcs[1] = {src};
+  int usage_error = 0;
+  Dataset warped(GDALWarp("", nullptr, 1, srcs, wopts.get(), &usage_error));
+  if (!warped)
+    dem_error("cannot reproject '" + path + "' to " + srs_label(dst_srs) + ": " + last_gdal_error());
+  double wgt[6];
+  if (GDALGetGeoTransform(warped.get(), wgt) != CE_None)
+    dem_error("internal error: warped raster has no geotransform");
+  return read_band1(warped.get(), wgt, srs_to_wkt(dst_srs), path);
+}
+
+Grid require_data(Grid g, const std::string& path) {
+  if (std::none_of(g.values.begin(), g.values.end(), [](float v) { return !std::isnan(v); }))
+    dem_error("'" + path + "' contains only nodata");
+  return g;
+}
+
+}  // namespace
+
 Grid load_dem(const std::string& path, const DemOptions& options) {
   ensure_gdal();
   QuietErrors quiet;
@@ -297,50 +385,9 @@ Grid load_dem(const std::string& path, const DemOptions& options) {
   double gt[6];
   if (GDALGetGeoTransform(src.get(), gt) != CE_None)
     dem_error("'" + path + "' has no geotransform (cell size and position unknown)");
-  if (gt[2] != 0.0 || gt[4] != 0.0)
-    dem_error("'" + path + "' has a rotated geotransform, which is not supported; warp it north-up first");
-  if (gt[1] == 0.0 || gt[5] == 0.0 || !std::isfinite(gt[1]) || !std::isfinite(gt[5]))
-    dem_error("'" + path + "' has a degenerate geotransform (zero cell size)");
+  check_geotransform(gt, path);
 
-  // Where the result must live.
-  std::unique_ptr<OGRSpatialReference> target;
-  if (!options.target_crs.empty()) {
-    target = std::make_unique<OGRSpatialReference>();
-    if (target->SetFromUserInput(options.target_crs.c_str()) != OGRERR_NONE)
-      crs_error("target CRS '" + options.target_crs + "' is not understood: " + last_gdal_error());
-    target->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-    if (!target->IsProjected())
-      crs_error("target CRS '" + options.target_crs + "' is not a projected CRS");
-    const char* unit = nullptr;
-    if (!is_metre(target->GetLinearUnits(&unit)))
-      crs_error("target CRS '" + options.target_crs + "' has linear unit '" + (unit ? unit : "?") +
-                "', not metres");
-  } else if (src_srs->IsProjected()) {
-    const char* unit = nullptr;
-    const double to_m = src_srs->GetLinearUnits(&unit);
-    if (!is_metre(to_m))
-      dem_error("'" + path + "' is in a projected CRS (" + srs_label(*src_srs) + ") whose linear unit is '" +
-                (unit ? unit : "?") + "' (" + std::to_string(to_m) +
-                " m), not metres; set a metre target CRS to reproject it");
-  } else if (src_srs->IsGeographic()) {
-    // UTM zone of the raster centre, in WGS 84 longitude/latitude.
-    OGRSpatialReference wgs84;
-    wgs84.SetWellKnownGeogCS("WGS84");
-    wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-    std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(src_srs.get(), &wgs84));
-    double cx = gt[0] + gt[1] * nx / 2.0, cy = gt[3] + gt[5] * ny / 2.0;
-    if (!ct || !ct->Transform(1, &cx, &cy))
-      dem_error("cannot locate the centre of '" + path + "' in WGS 84: " + last_gdal_error());
-    target = std::make_unique<OGRSpatialReference>();
-    const std::string utm = utm_crs_for(cx, cy);
-    if (target->SetFromUserInput(utm.c_str()) != OGRERR_NONE)
-      dem_error("cannot build " + utm + ": " + last_gdal_error());
-    target->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-  } else {
-    dem_error("'" + path + "' has a CRS that is neither geographic nor projected (" + srs_label(*src_srs) +
-              "); set a target CRS");
-  }
-
+  const std::unique_ptr<OGRSpatialReference> target = working_crs(*src_srs, options, gt, nx, ny, path);
   const bool reproject = target && !src_srs->IsSame(target.get());
   const bool resample = !reproject && options.resolution > 0.0 &&
                         (std::abs(std::abs(gt[1]) - options.resolution) > 1e-9 * options.resolution ||
@@ -349,39 +396,8 @@ Grid load_dem(const std::string& path, const DemOptions& options) {
     dem_error("resolution must be a positive number of metres (or 0 for native), got " +
               std::to_string(options.resolution));
 
-  if (!reproject && !resample) {
-    Grid g = read_band1(src.get(), gt, srs_to_wkt(*src_srs), path);
-    if (std::none_of(g.values.begin(), g.values.end(), [](float v) { return !std::isnan(v); }))
-      dem_error("'" + path + "' contains only nodata");
-    return g;
-  }
-
-  // Warp (reprojection and/or resampling) into memory, Float32 so NaN can be the nodata value.
-  const OGRSpatialReference& dst_srs = target ? *target : *src_srs;
-  Argv args{"-of", "MEM", "-ot", "Float32", "-r", "bilinear", "-t_srs", srs_to_wkt(dst_srs),
-            "-dstnodata", "nan", "-et", "0"};
-  if (options.resolution > 0.0) {
-    char res[64];
-    std::snprintf(res, sizeof res, "%.17g", options.resolution);
-    args.add("-tr");
-    args.add(res);
-    args.add(res);
-  }
-  std::unique_ptr<GDALWarpAppOptions, decltype(&GDALWarpAppOptionsFree)> wopts(
-      GDALWarpAppOptionsNew(args.get(), nullptr), &GDALWarpAppOptionsFree);
-  if (!wopts) dem_error("internal error: GDAL rejected the warp options: " + last_gdal_error());
-  GDALDatasetH srcs[1] = {src.get()};
-  int usage_error = 0;
-  Dataset warped(GDALWarp("", nullptr, 1, srcs, wopts.get(), &usage_error));
-  if (!warped)
-    dem_error("cannot reproject '" + path + "' to " + srs_label(dst_srs) + ": " + last_gdal_error());
-  double wgt[6];
-  if (GDALGetGeoTransform(warped.get(), wgt) != CE_None)
-    dem_error("internal error: warped raster has no geotransform");
-  Grid g = read_band1(warped.get(), wgt, srs_to_wkt(dst_srs), path);
-  if (std::none_of(g.values.begin(), g.values.end(), [](float v) { return !std::isnan(v); }))
-    dem_error("'" + path + "' contains only nodata");
-  return g;
+  if (!reproject && !resample) return require_data(read_band1(src.get(), gt, srs_to_wkt(*src_srs), path), path);
+  return require_data(warp_band1(src.get(), target ? *target : *src_srs, options.resolution, path), path);
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -498,22 +514,9 @@ void draw_line(Image& img, double xa, double ya, double xb, double yb, int radiu
   }
 }
 
-}  // namespace
-
-void write_depth_map_png(const std::string& path, const Grid& terrain, const Grid& depth, double min_depth,
-                         const std::vector<MapOverlay>& overlays) {
-  check_grid(terrain, "write_depth_map_png (terrain)");
-  check_grid(depth, "write_depth_map_png (depth)");
-  if (depth.nx != terrain.nx || depth.ny != terrain.ny)
-    throw std::invalid_argument("write_depth_map_png: depth grid is " + std::to_string(depth.nx) + " x " +
-                                std::to_string(depth.ny) + " but terrain is " + std::to_string(terrain.nx) +
-                                " x " + std::to_string(terrain.ny));
-  ensure_gdal();
-  QuietErrors quiet;
-  const int nx = terrain.nx, ny = terrain.ny;
-
-  // Hillshade by GDAL (Horn's method, sun from the north-west at 45 degrees). NaN becomes a finite nodata
-  // value because the DEM processing compares nodata by equality.
+// Hillshade by GDAL (Horn's method, sun from the north-west at 45 degrees), one byte per cell. NaN becomes a
+// finite nodata value because the DEM processing compares nodata by equality.
+std::vector<unsigned char> hillshade(const Grid& terrain) {
   const float sentinel = -1.0e30f;
   Dataset dem = mem_dataset(terrain, false, &sentinel);
   Argv hs_args{"-of", "MEM", "-compute_edges", "-z", "1", "-s", "1", "-az", "315", "-alt", "45"};
@@ -523,51 +526,57 @@ void write_depth_map_png(const std::string& path, const Grid& terrain, const Gri
   int usage_error = 0;
   Dataset shade_ds(GDALDEMProcessing("", dem.get(), "hillshade", nullptr, hs_opts.get(), &usage_error));
   if (!shade_ds) throw std::runtime_error("write_depth_map_png: hillshade failed: " + last_gdal_error());
+  const int nx = terrain.nx, ny = terrain.ny;
   std::vector<unsigned char> shade(size_t(nx) * ny);
   if (GDALRasterIO(GDALGetRasterBand(shade_ds.get(), 1), GF_Read, 0, 0, nx, ny, shade.data(), nx, ny, GDT_Byte,
                    0, 0) != CE_None)
     throw std::runtime_error("write_depth_map_png: cannot read the hillshade: " + last_gdal_error());
+  return shade;
+}
 
+// Colour per cell: the hillshade in grey, the depth from min_depth to its maximum in a blue ramp over it.
+std::vector<std::array<unsigned char, 3>> cell_colours(const Grid& terrain, const Grid& depth,
+                                                       const std::vector<unsigned char>& shade, double min_depth) {
   double dmax = -std::numeric_limits<double>::infinity();
   for (float d : depth.values)
     if (std::isfinite(d) && d >= min_depth) dmax = std::max(dmax, static_cast<double>(d));
-
-  // Colour per cell.
   const double light[3] = {198, 225, 255}, dark[3] = {8, 40, 150};
   const double alpha = 0.8;  // weight of the depth colour over the hillshade
-  std::vector<std::array<unsigned char, 3>> cell(size_t(nx) * ny);
-  for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) {
-      const size_t k = size_t(j) * nx + i;
-      const float z = terrain.values[k];
-      if (std::isnan(z)) {
-        cell[k] = {24, 24, 24};
-        continue;
-      }
-      // Hillshade 1..255 (0 = nodata next to holes) to a grey that never goes fully black.
-      const double s = shade[k] == 0 ? 0.5 : shade[k] / 255.0;
-      const double grey = 50.0 + 205.0 * s;
-      double rgb[3] = {grey, grey, grey};
-      const float d = depth.values[k];
-      if (std::isfinite(d) && d >= min_depth) {
-        const double t = dmax > min_depth ? std::clamp((d - min_depth) / (dmax - min_depth), 0.0, 1.0) : 1.0;
-        for (int c = 0; c < 3; ++c) {
-          const double ramp = light[c] + t * (dark[c] - light[c]);
-          // Keep a trace of the relief under the flow: modulate by the shade around its mid value.
-          rgb[c] = alpha * ramp * (0.75 + 0.5 * (s - 0.5)) + (1 - alpha) * grey;
-        }
-      }
-      for (int c = 0; c < 3; ++c) cell[k][c] = static_cast<unsigned char>(std::clamp(std::lround(rgb[c]), 0L, 255L));
+  std::vector<std::array<unsigned char, 3>> cell(terrain.values.size());
+  for (size_t k = 0; k < cell.size(); ++k) {
+    const float z = terrain.values[k];
+    if (std::isnan(z)) {
+      cell[k] = {24, 24, 24};
+      continue;
     }
+    // Hillshade 1..255 (0 = nodata next to holes) to a grey that never goes fully black.
+    const double s = shade[k] == 0 ? 0.5 : shade[k] / 255.0;
+    const double grey = 50.0 + 205.0 * s;
+    double rgb[3] = {grey, grey, grey};
+    const float d = depth.values[k];
+    if (std::isfinite(d) && d >= min_depth) {
+      const double t = dmax > min_depth ? std::clamp((d - min_depth) / (dmax - min_depth), 0.0, 1.0) : 1.0;
+      for (int c = 0; c < 3; ++c) {
+        const double ramp = light[c] + t * (dark[c] - light[c]);
+        // Keep a trace of the relief under the flow: modulate by the shade around its mid value.
+        rgb[c] = alpha * ramp * (0.75 + 0.5 * (s - 0.5)) + (1 - alpha) * grey;
+      }
+    }
+    for (int c = 0; c < 3; ++c) cell[k][c] = static_cast<unsigned char>(std::clamp(std::lround(rgb[c]), 0L, 255L));
+  }
+  return cell;
+}
 
-  const int f = depth_map_png_scale(nx, ny);
-  Image img(nx * f, ny * f);
+// The cells enlarged f times, with the overlays' lines drawn over them (f / 4 pixels wide each side).
+Image map_image(const Grid& terrain, const std::vector<std::array<unsigned char, 3>>& cell, int f,
+                const std::vector<MapOverlay>& overlays) {
+  const int nx = terrain.nx;
+  Image img(nx * f, terrain.ny * f);
   for (int y = 0; y < img.h; ++y)
     for (int x = 0; x < img.w; ++x) {
       const auto& c = cell[size_t(y / f) * nx + x / f];
       img.put(x, y, c[0], c[1], c[2]);
     }
-
   const int radius = f / 4;
   for (const auto& o : overlays)
     for (const auto& line : o.lines)
@@ -577,9 +586,12 @@ void write_depth_map_png(const std::string& path, const Grid& terrain, const Gri
         draw_line(img, px(line[p - 1].first), py(line[p - 1].second), px(line[p].first), py(line[p].second),
                   radius, o);
       }
+  return img;
+}
 
-  // RGB through MEM, then the PNG driver's CreateCopy (PNG has no Create). No georeferencing on the MEM
-  // dataset, so the PNG driver has nothing to put in a sidecar file.
+// RGB through MEM, then the PNG driver's CreateCopy (PNG has no Create). No georeferencing on the MEM
+// dataset, so the PNG driver has nothing to put in a sidecar file.
+void write_png(const std::string& path, Image& img) {
   GDALDriverH mem = GDALGetDriverByName("MEM");
   GDALDriverH png = GDALGetDriverByName("PNG");
   if (!mem || !png) throw std::runtime_error("write_depth_map_png: GDAL lacks the MEM or PNG driver");
@@ -606,40 +618,22 @@ void write_depth_map_png(const std::string& path, const Grid& terrain, const Gri
   close_and_commit(out, tmp, path, "write_depth_map_png");
 }
 
-// ---------------------------------------------------------------------------------------------------------
-// file_sha256
+}  // namespace
 
-std::string file_sha256(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("file_sha256: cannot open '" + path + "'");
-  std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> ctx(EVP_MD_CTX_new(), EVP_MD_CTX_free);
-  if (!ctx || EVP_DigestInit_ex(ctx.get(), EVP_sha256(), nullptr) != 1)
-    throw std::runtime_error("file_sha256: OpenSSL SHA-256 unavailable");
-  std::vector<char> buf(1 << 16);
-  while (in) {
-    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
-    const std::streamsize got = in.gcount();
-    if (got > 0) EVP_DigestUpdate(ctx.get(), buf.data(), static_cast<size_t>(got));
-  }
-  if (in.bad()) throw std::runtime_error("file_sha256: error reading '" + path + "'");
-  unsigned char digest[EVP_MAX_MD_SIZE];
-  unsigned int len = 0;
-  EVP_DigestFinal_ex(ctx.get(), digest, &len);
-  static const char* hex = "0123456789abcdef";
-  std::string out;
-  for (unsigned int k = 0; k < len; ++k) out += hex[digest[k] >> 4], out += hex[digest[k] & 15];
-  return out;
-}
-
-std::string sha256_hex(const std::string& bytes) {
-  unsigned char digest[EVP_MAX_MD_SIZE];
-  unsigned int len = 0;
-  if (EVP_Digest(bytes.data(), bytes.size(), digest, &len, EVP_sha256(), nullptr) != 1)
-    throw std::runtime_error("sha256_hex: OpenSSL SHA-256 unavailable");
-  static const char* hex = "0123456789abcdef";
-  std::string out;
-  for (unsigned int k = 0; k < len; ++k) out += hex[digest[k] >> 4], out += hex[digest[k] & 15];
-  return out;
+void write_depth_map_png(const std::string& path, const Grid& terrain, const Grid& depth, double min_depth,
+                         const std::vector<MapOverlay>& overlays) {
+  check_grid(terrain, "write_depth_map_png (terrain)");
+  check_grid(depth, "write_depth_map_png (depth)");
+  if (depth.nx != terrain.nx || depth.ny != terrain.ny)
+    throw std::invalid_argument("write_depth_map_png: depth grid is " + std::to_string(depth.nx) + " x " +
+                                std::to_string(depth.ny) + " but terrain is " + std::to_string(terrain.nx) +
+                                " x " + std::to_string(terrain.ny));
+  ensure_gdal();
+  QuietErrors quiet;
+  const std::vector<unsigned char> shade = hillshade(terrain);
+  Image img = map_image(terrain, cell_colours(terrain, depth, shade, min_depth),
+                        depth_map_png_scale(terrain.nx, terrain.ny), overlays);
+  write_png(path, img);
 }
 
 }  // namespace runout::terrain

@@ -1,5 +1,5 @@
 // Raster I/O: DEM loading and reprojection against an analytic surface and the shipped Jacksboro DEM, GeoTIFF
-// and PNG output, refusal of bad inputs, SHA-256.
+// and PNG output, and refusal of bad inputs.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -598,23 +598,6 @@ TEST_F(terrain_raster, ConcurrentLoadsAgree) {
     EXPECT_NE(errors[t].find("missing.tif: No such file"), std::string::npos) << errors[t];
     EXPECT_TRUE(fs::exists(dir / ("out" + std::to_string(t) + ".tif")));
   }
-}
-
-TEST_F(terrain_raster, Sha256OfKnownContents) {
-  auto write = [&](const std::string& name, const std::string& bytes) {
-    const fs::path p = dir / name;
-    std::ofstream(p, std::ios::binary) << bytes;
-    return p.string();
-  };
-  EXPECT_EQ(file_sha256(write("abc", "abc")), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
-  EXPECT_EQ(file_sha256(write("empty", "")), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
-  // 56 bytes: the padding spills into a second block.
-  EXPECT_EQ(file_sha256(write("two_blocks", "abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq")),
-            "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
-  // A million 'a': many read chunks.
-  EXPECT_EQ(file_sha256(write("million", std::string(1000000, 'a'))),
-            "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
-  EXPECT_THROW(file_sha256((dir / "missing").string()), std::runtime_error);
 }
 
 }  // namespace

@@ -99,9 +99,4 @@ void write_depth_map_png(const std::string& path, const Grid& terrain, const Gri
 // the longer side), so the PNG is (nx * factor) x (ny * factor) pixels.
 int depth_map_png_scale(int nx, int ny);
 
-// SHA-256 of a file's bytes (for run manifests), hex.
-std::string file_sha256(const std::string& path);
-// SHA-256 of a string, hex.
-std::string sha256_hex(const std::string& bytes);
-
 }  // namespace runout::terrain

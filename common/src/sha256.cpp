@@ -1,0 +1,49 @@
+#include "runout/common/sha256.hpp"
+
+#include <fstream>
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+#include <openssl/evp.h>
+
+namespace runout {
+namespace {
+
+std::string to_hex(const unsigned char* digest, unsigned int len) {
+  static const char* hex = "0123456789abcdef";
+  std::string out;
+  for (unsigned int k = 0; k < len; ++k) out += hex[digest[k] >> 4], out += hex[digest[k] & 15];
+  return out;
+}
+
+}  // namespace
+
+std::string file_sha256(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("file_sha256: cannot open '" + path + "'");
+  std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> ctx(EVP_MD_CTX_new(), EVP_MD_CTX_free);
+  if (!ctx || EVP_DigestInit_ex(ctx.get(), EVP_sha256(), nullptr) != 1)
+    throw std::runtime_error("file_sha256: OpenSSL SHA-256 unavailable");
+  std::vector<char> buf(1 << 16);  // the file is streamed: DEMs can be larger than memory wants
+  while (in) {
+    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    const std::streamsize got = in.gcount();
+    if (got > 0) EVP_DigestUpdate(ctx.get(), buf.data(), static_cast<size_t>(got));
+  }
+  if (in.bad()) throw std::runtime_error("file_sha256: error reading '" + path + "'");
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int len = 0;
+  EVP_DigestFinal_ex(ctx.get(), digest, &len);
+  return to_hex(digest, len);
+}
+
+std::string sha256_hex(const std::string& bytes) {
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int len = 0;
+  if (EVP_Digest(bytes.data(), bytes.size(), digest, &len, EVP_sha256(), nullptr) != 1)
+    throw std::runtime_error("sha256_hex: OpenSSL SHA-256 unavailable");
+  return to_hex(digest, len);
+}
+
+}  // namespace runout

@@ -1,0 +1,73 @@
+#pragma once
+// The steps of build_terrain (build.cpp), in its order: the corridor on the DEM and the bed grid at dp over
+// it (corridor.cpp), the structures' footprints, regrading, walls and storage (structures.cpp), and the
+// boundary and release particles (particles.cpp). Private to the terrain library.
+#include <cstddef>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "runout/terrain/terrain.hpp"
+
+namespace runout::terrain::detail {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Numbers and map points for messages, at 10 significant digits.
+std::string num(double v);
+std::string point(double x, double y);
+std::string structure_field(size_t k);
+
+// Where a structure stands on the map (walls widened to at least `layers` particle columns).
+struct Footprint {
+  const StructureSpec* s;
+  double half_wall;
+  std::vector<Polyline> walled_edges;  // basins
+  bool contains(double x, double y) const;
+  double reach() const { return half_wall; }
+  bool walled(const Polyline& edge) const;  // a basin edge that carries a wall
+};
+std::vector<Footprint> footprints(const TerrainSpec& spec, const Grid& dem, double dp);
+
+// DEM cells the model covers: the energy-line reach (buffered) or the corridor polygon, plus every
+// structure's footprint. Sets max_energy_height (at least the release depth).
+std::vector<char> corridor_cells(const TerrainSpec& spec, const Grid& dem, const std::vector<Footprint>& feet,
+                                 double release_depth, double dp, double& max_energy_height);
+
+// The corridor's bounding box in DEM cells, and how many cells it keeps of those with data.
+struct CorridorBox {
+  int i0, i1, j0, j1;
+  size_t valid = 0, kept = 0;
+};
+// Drops nodata cells from the corridor; throws if none is left.
+CorridorBox corridor_box(const Grid& dem, std::vector<char>& corridor);
+
+// m.original and m.bed at m.dp over the box, the local origin and the open faces.
+void lay_bed(TerrainModel& m, const std::vector<char>& corridor, const CorridorBox& box, int layers,
+             long max_particles);
+
+// Bed columns under the release polygon; throws if any has no ground or there are none.
+std::vector<size_t> release_columns(const Polyline& polygon, const Grid& bed, double dp);
+
+// Structure index owning each bed column (-1: none); throws for overlaps, nodata and empty footprints.
+std::vector<int> structure_owners(const TerrainSpec& spec, const std::vector<Footprint>& feet, const Grid& bed,
+                                  double dp);
+
+// m.structures, with the bed regraded (deposition areas) and excavated (basins).
+void regrade_and_excavate(TerrainModel& m, const TerrainSpec& spec, const std::vector<int>& owner);
+// m.wall_top, m.wall_owner, m.wall_interior and the structures' wall tags, crests and built heights.
+void build_walls(TerrainModel& m, const TerrainSpec& spec, const std::vector<Footprint>& feet,
+                 const std::vector<int>& owner);
+// The structures' storage capacities and flow normals.
+void storage_capacities(TerrainModel& m, const TerrainSpec& spec, const std::vector<Footprint>& feet,
+                        const std::vector<int>& owner);
+
+// m.boundary: `layers` under each column and more on steep ground, wall particles on top; throws when the
+// count with the release would pass max_particles.
+void lay_boundary_particles(TerrainModel& m, int layers, size_t release_columns, double release_depth,
+                            long max_particles);
+// m.fluid: the release columns filled to its depth (or volume); throws if one is in a wall.
+void fill_release(TerrainModel& m, const ReleaseSpec& release, const std::vector<size_t>& columns);
+
+}  // namespace runout::terrain::detail
