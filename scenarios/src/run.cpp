@@ -536,9 +536,10 @@ std::string failure_message(const SimulationError& e, const Solver<D>& solver) {
   if (!solver.config().density_floor &&
       (e.cause == SimulationError::Cause::non_finite || e.cause == SimulationError::Cause::dt_floor)) {
     bool floored_material = false;
-    for (const auto& mat : solver.materials()) floored_material = floored_material || mat.rheology == "friction-hbp";
+    for (const auto& mat : solver.materials())
+      floored_material = floored_material || rheology_model(mat.rheology).traits.granular;
     if (floored_material)
-      error += " (a friction material's density can drift far under rho0 without numerics.density_floor = true; "
+      error += " (a granular material's density can drift far under rho0 without numerics.density_floor = true; "
                "see docs/tradeoff.md, \"density floor\")";
   }
   return error;

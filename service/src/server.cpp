@@ -8,6 +8,8 @@
 
 #include "server_impl.hpp"
 
+#include "runout/common/sha256.hpp"
+
 namespace runout::service {
 
 void Server::Impl::setup_routes() {
@@ -202,7 +204,7 @@ Server::Server(ServeOptions options) : impl_(std::make_unique<Impl>()) {
   if (!m.opt.token.empty()) m.tokens.push_back(m.opt.token);
   for (const auto& t : m.opt.tokens)
     if (!t.empty() && std::find(m.tokens.begin(), m.tokens.end(), t) == m.tokens.end()) m.tokens.push_back(t);
-  for (const auto& t : m.tokens) m.token_labels.push_back("token-" + terrain::sha256_hex(t).substr(0, 12));
+  for (const auto& t : m.tokens) m.token_labels.push_back("token-" + sha256_hex(t).substr(0, 12));
   {
     // Longest first, so that a root inside another is replaced before it. The scene directory's prefix goes
     // (file names read as the client wrote them); the rest are named by their option.
