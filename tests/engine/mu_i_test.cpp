@@ -49,8 +49,10 @@ TEST(MuI, SimpleShearStressIsMuOfITimesPressure) {
 TEST(MuI, FrictionRunsFromMuSToMu2AndVanishesWithoutPressure) {
   const auto r = make_rheology(beads(1e6));
   const double p = 1e3;
-  EXPECT_NEAR(mu_eff(*r, 1e-4, p) * 1e-4 / p, kMuS, 1e-6);  // I ~ 1e-9
-  EXPECT_NEAR(mu_eff(*r, 1e9, p) * 1e9 / p, kMu2, 1e-6);    // I ~ 1e4
+  // I = 8e-8 and 8e5 here: mu(I) is within (mu_2 - mu_s) I / I0 = 7e-8 of mu_s, and (mu_2 - mu_s) I0 / I = 9e-8 of
+  // mu_2; the regularisation factor 1 - exp(-m g) is 1 to exp(-100). 1e-6 is ten times those.
+  EXPECT_NEAR(mu_eff(*r, 1e-4, p) * 1e-4 / p, kMuS, 1e-6);
+  EXPECT_NEAR(mu_eff(*r, 1e9, p) * 1e9 / p, kMu2, 1e-6);
   EXPECT_EQ(mu_eff(*r, 10.0, 0.0), 0.0);
   EXPECT_EQ(mu_eff(*r, 10.0, -50.0), 0.0);  // tension: no strength
   EXPECT_EQ(r->tensile_strength(), 0.0);
@@ -58,7 +60,7 @@ TEST(MuI, FrictionRunsFromMuSToMu2AndVanishesWithoutPressure) {
 }
 
 TEST(MuI, RegularisedAtSmallShearRateLikeTheHbpFamily) {
-  // g -> 0: mu_eff -> mu_s P m (finite), as HBP's tau_y m.
+  // g -> 0: mu_eff -> mu_s P m (finite), as HBP's tau_y m; at g = 1e-12 the factor is m (1 - 5e-11) and I ~ 1e-15.
   const auto r = make_rheology(beads(100.0));
   EXPECT_NEAR(mu_eff(*r, 1e-12, 500.0), kMuS * 500.0 * 100.0, 1e-6 * kMuS * 500.0 * 100.0);
 }
