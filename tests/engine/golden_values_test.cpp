@@ -66,7 +66,7 @@ SceneSetup<D> golden_scene(const Case& c) {
   s.config.kernel = kernel_from_name(c.kernel);
   s.config.speed_of_sound = 20;
   s.config.artificial_viscosity = 0.05;
-  s.config.boundary_pressure = c.wall == "dbc" ? BoundaryPressure::dbc : BoundaryPressure::extrapolated;
+  s.config.boundary_pressure = boundary_pressure_from_name(c.wall);
   s.config.gravity = {0, 0, 0};
   s.config.gravity[D - 1] = -9.81;
   const auto& [rho0, params] = kMaterials.at(c.rheology);
@@ -159,7 +159,7 @@ std::vector<Case> all_cases() {
   std::vector<Case> cases;
   for (const auto& r : rheology_names()) {
     for (const auto& k : kernel_names())
-      for (const char* w : {"dbc", "extrapolated"}) cases.push_back({r, k, w, 2});
+      for (const auto& w : boundary_pressure_names()) cases.push_back({r, k, w, 2});
     cases.push_back({r, kernel_names().front(), "extrapolated", 3});
   }
   return cases;

@@ -12,7 +12,9 @@
 #include <string>
 #include <vector>
 
+#include "runout/engine/eos.hpp"
 #include "runout/engine/solver.hpp"
+#include "pass_context.hpp"
 
 namespace runout {
 namespace solver_detail {
@@ -26,6 +28,17 @@ inline std::string fmt_time(real t) {
   std::snprintf(buf, sizeof buf, "t=%.6g s", t);
   return buf;
 }
+
+// The largest values an evaluation sees, for the time step: |a|^2, the artificial-viscosity term mu_ij and the
+// kinematic viscosity. Each thread keeps its own and they are merged at the end of a pass.
+struct PassMaxima {
+  real acc2 = 0, visc_term = 0, nu = 0;
+  void merge(const PassMaxima& o) {
+    acc2 = std::max(acc2, o.acc2);
+    visc_term = std::max(visc_term, o.visc_term);
+    nu = std::max(nu, o.nu);
+  }
+};
 
 }  // namespace solver_detail
 using namespace solver_detail;
@@ -77,17 +90,74 @@ struct Solver<D>::Impl {
   // Per particle, once per evaluation rather than per pair: volume m / rho and p / rho^2 (fluid; boundary:
   // the active ones).
   std::vector<real> vol, pt, inv_rho, bvol, bpt;
-  // What a pair loop reads of its neighbour j, packed in one 64-byte record per fluid particle (one cache
-  // line instead of one per array): velocity, rho, m / rho, p / rho^2, p (pass 1) or mu_eff (pass 2), 1 / rho.
-  static constexpr int kPackStride = 8, kPackRho = D, kPackVol = D + 1, kPackPt = D + 2, kPackPm = D + 3,
-                       kPackInvRho = D + 4;
-  static_assert(kPackInvRho < kPackStride);
+  // What a pair loop reads of its neighbour j, one record per fluid particle (Pack<D>, pass_context.hpp).
   std::vector<real> neighbour_pack;
+
+  // Per material, set once per evaluation: the Tait EOS, rho0, the tension floor (-tensile strength) and the wall
+  // friction coefficient.
+  std::vector<TaitEOS> eos;
+  std::vector<real> rho0, p_min, wall_friction;
+  PassMaxima maxima;
 
   std::vector<std::pair<uint64_t, uint32_t>> sort_buf;
   std::vector<real> scratch_real;
   std::vector<uint32_t> scratch_u32;
   std::vector<uint16_t> scratch_u16;
+
+  const uint32_t* list_of(uint32_t i) const { return list_buf[list_thread[i]].data() + list_off[i]; }
+
+  // The fluid particles, cell by cell, shared among the threads of the enclosing parallel region.
+  template <class F>
+  void for_each_fluid(F&& f) const {
+    const size_t ncells = fcell_key.size();
+#pragma omp for schedule(dynamic, 16)
+    for (size_t c = 0; c < ncells; ++c)
+      for (uint32_t i = fcell_begin[c]; i < fcell_begin[c + 1]; ++i) f(i);
+  }
+
+  // Runs body(A, Bacc, maxima) in a parallel region in which each thread owns accumulators A (nf_fields values
+  // per fluid particle, particle-major so one pair's updates share a cache line) and Bacc (nb_fields per active
+  // boundary particle), zeroed; then, after the barrier, finish_fluid(sum, i, maxima) for each of the n fluid
+  // particles with sum(f, i) the total over threads, and finish_boundary(bsum, b, slot) for every active
+  // boundary particle. Each thread's maxima are merged into `maxima`.
+  template <class Body, class FinishFluid, class FinishBoundary>
+  void accumulate(size_t n, int nf_fields, int nb_fields, Body&& body, FinishFluid&& finish_fluid,
+                  FinishBoundary&& finish_boundary) {
+    const size_t nslots = active_boundary_count;
+#pragma omp parallel
+    {
+      const int t = omp_get_thread_num();
+      const int T = omp_get_num_threads();
+      PassMaxima own;
+      auto& A = acc_f[t];
+      auto& Bacc = acc_b[t];
+      A.assign(static_cast<size_t>(nf_fields) * n, 0.0);
+      Bacc.assign(static_cast<size_t>(nb_fields) * nslots, 0.0);
+      body(A.data(), Bacc.data(), own);
+      // (the worksharing loop in body ends with a barrier: every thread's accumulators are complete)
+      auto fsum = [&](int f, size_t i) {
+        real s = 0;
+        for (int u = 0; u < T; ++u) s += acc_f[u][i * nf_fields + f];
+        return s;
+      };
+      auto bsum = [&](int f, size_t q) {
+        real s = 0;
+        for (int u = 0; u < T; ++u) s += acc_b[u][q * nb_fields + f];
+        return s;
+      };
+#pragma omp for schedule(static)
+      for (size_t i = 0; i < n; ++i) finish_fluid(fsum, i, own);
+      if (nb_fields > 0) {
+#pragma omp for schedule(static)
+        for (size_t a = 0; a < active_bcells.size(); ++a) {
+          const uint32_t cb = active_bcells[a];
+          for (uint32_t b = bcell_begin[cb]; b < bcell_begin[cb + 1]; ++b) finish_boundary(bsum, b, bslot[b]);
+        }
+      }
+#pragma omp critical(runout_pass_maxima)
+      maxima.merge(own);
+    }
+  }
 
   std::array<int64_t, D> coords(const Vec<D>& p) const {
     std::array<int64_t, D> c;

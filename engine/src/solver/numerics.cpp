@@ -52,8 +52,16 @@ const std::vector<std::string>& density_diffusion_names() {
   return names;
 }
 const std::vector<std::string>& boundary_pressure_names() {
-  static const std::vector<std::string> names = {"dbc", "extrapolated"};
+#define RUNOUT_WALL_MODEL_NAME(id, doc) #id,
+  static const std::vector<std::string> names = {RUNOUT_WALL_MODELS(RUNOUT_WALL_MODEL_NAME)};
+#undef RUNOUT_WALL_MODEL_NAME
   return names;
+}
+const std::vector<std::string>& boundary_pressure_docs() {
+#define RUNOUT_WALL_MODEL_DOC(id, doc) doc,
+  static const std::vector<std::string> docs = {RUNOUT_WALL_MODELS(RUNOUT_WALL_MODEL_DOC)};
+#undef RUNOUT_WALL_MODEL_DOC
+  return docs;
 }
 Integrator integrator_from_name(const std::string& name) {
   return from_name<Integrator>(name, integrator_names(), "integrator");

@@ -15,15 +15,12 @@
 #include "runout/engine/parameters.hpp"
 #include "runout/engine/rheology.hpp"
 #include "runout/engine/types.hpp"
+#include "runout/engine/wall_models.hpp"
 
 namespace runout {
 
 enum class Integrator { symplectic, verlet };
 enum class DensityDiffusion { none, molteni, fourtakas };
-// How boundary particles get their pressure: `dbc` carries a density by the continuity equation (Crespo et al.
-// 2007); `extrapolated` takes it each step from the fluid next to them (Adami, Hu & Adams 2012, with the
-// hydrostatic term), which has no memory and so no pressure cushion under a thinning, spreading layer.
-enum class BoundaryPressure { dbc, extrapolated };
 
 // Wall contact: a fluid particle closer than kWallContact dp to a wall particle loses the velocity component
 // towards the wall. A resting particle sits dp above the bed lattice and 0.9 dp from the next terrain column's
@@ -73,10 +70,13 @@ const ParameterSpec& numerics_parameter(const std::string& key);
 // The named choices of the numerics, by the names a scene gives them.
 const std::vector<std::string>& integrator_names();
 const std::vector<std::string>& density_diffusion_names();
-const std::vector<std::string>& boundary_pressure_names();
 Integrator integrator_from_name(const std::string& name);
 DensityDiffusion density_diffusion_from_name(const std::string& name);
-BoundaryPressure boundary_pressure_from_name(const std::string& name);
+
+namespace solver_detail {
+template <int D>
+struct PassContext;  // engine/src/solver/pass_context.hpp
+}
 
 // Particle storage: one vector per component (SoA).
 template <int D>
@@ -240,7 +240,14 @@ class Solver {
   real kinetic_inflow_ = 0;
 
   void sort_and_build_cells();
+  // One force evaluation (forces.cpp) and its steps.
   void evaluate(bool compute_dt);
+  void update_fluid_state();              // EOS, per-particle volumes and the neighbour pack
+  void build_pair_lists(real support);    // pair_lists.cpp
+  void update_wall_volumes();             // m / rho and p / rho^2 of the active wall particles
+  solver_detail::PassContext<D> pass_context();
+  void apply_rheology();                  // rheology.cpp: mu_eff per material batch, capped
+  void set_time_step(bool viscous);       // from the evaluation's maxima
   void check_state();
   real potential_energy() const;
   void create_inlet_buffers();

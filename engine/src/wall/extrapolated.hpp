@@ -1,0 +1,54 @@
+#pragma once
+// Extrapolated wall pressure (Adami, Hu & Adams 2012, with the hydrostatic term): each step
+// p_b = sum_f (p_f + rho_f g.(x_b - x_f)) W_bf / sum_f W_bf, clamped at 0, and the density from the EOS.
+// No memory, so no pressure cushion under a thinning, spreading layer.
+#include <algorithm>
+#include <cmath>
+
+#include "particle_wall.hpp"
+#include "runout/engine/eos.hpp"
+
+namespace runout {
+namespace wall {
+
+struct extrapolated {
+  template <int D>
+  using Pairs = ParticleWall<D>;
+
+  // Shepard sums over the fluid-wall pairs of the lists (n fluid particles), then p_b and rho_b.
+  template <int D, class Kernel, class ImplT>
+  static void update_pressure(const PassContext<D>& c, const Kernel& kernel, ImplT& I, size_t n, const TaitEOS& eos,
+                              real* pressure, real* density) {
+    I.accumulate(
+        n, 0, 2,
+        [&](real*, real* Bacc, auto&) {
+          I.for_each_fluid([&](uint32_t i) {
+            const uint32_t* L = I.list_of(i) + I.list_nf[i];
+            for (uint32_t q = 0; q < I.list_nb[i]; ++q) {
+              const uint32_t b = L[q];
+              real r2 = 0, gdx = 0;
+              for (int d = 0; d < D; ++d) {
+                // x_b - x_f up to the periodic image: the same as -(x_i - x_b) from the fluid's side.
+                real dxd = c.BP[d][b] - c.P[d][i];
+                if (c.any_periodic && c.period[d] > 0) dxd -= c.period[d] * std::round(dxd / c.period[d]);
+                r2 += dxd * dxd;
+                gdx += c.g[d] * dxd;
+              }
+              const real w = kernel.W(std::sqrt(r2));
+              Bacc[2 * c.bslot[b]] += w;
+              Bacc[2 * c.bslot[b] + 1] += (c.press[i] + c.rho[i] * gdx) * w;
+            }
+          });
+        },
+        [](auto&&, size_t, auto&) {},
+        [&](auto&& bsum, uint32_t b, uint32_t s) {
+          const real sw = bsum(0, s), spw = bsum(1, s);
+          const real pb = sw > 0 ? std::max(spw / sw, 0.0) : 0.0;
+          pressure[b] = pb;
+          density[b] = eos.density(pb);
+        });
+  }
+};
+
+}  // namespace wall
+}  // namespace runout
