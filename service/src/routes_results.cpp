@@ -1,4 +1,5 @@
 // Routes: a job's results: metrics, series, rasters, map.png and map.json (server_impl.hpp, docs/service.md).
+#include "runout/scenarios/scene_map.hpp"
 #include "server_impl.hpp"
 
 namespace runout::service {
@@ -60,57 +61,48 @@ void Server::Impl::routes_results() {
         only_params(req, {});
         raster(m[1].str(), "max_depth.png", res, "image/png");
       });
-  // Where map.png lies on the ground, and what to draw over it: the raster's extent and CRS (read from
-  // max_depth.tif, whose cells the PNG enlarges by a whole factor), and the map geometry of the job's
-  // structures, protected zones, release and cross-sections from its resolved scene (working CRS, metres).
+  // Where map.png lies on the ground, and what to draw over it: the rasters' extent and CRS, and the map geometry
+  // of the job's structures, protected zones, release and cross-sections (working CRS, metres), both from
+  // scenarios (scene_map.hpp).
   add(R"(/jobs/(\d{1,18})/map\.json)", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
     only_params(req, {});
     const Job j = require_job(m[1].str());
     const int64_t run = run_of(j);
-    const fs::path tif = out_dir_of(j) / "rasters" / "max_depth.tif";
-    if (!fs::is_regular_file(tif))
-      throw ApiError(404, "id", "job " + m[1].str() + " has no map (maps exist for terrain scenes)");
-    terrain::Grid g;
+    std::optional<MapExtent> extent;
     try {
-      g = terrain::load_dem(tif.string());
+      extent = run_map_extent(out_dir_of(j));
     } catch (const std::exception& e) {
       throw ApiError(500, "id", "cannot read the extent of job " + m[1].str() + "'s max_depth.tif: " + e.what());
     }
-    const json scene = json::parse(j.scene_json, nullptr, false);
-    auto ring = [](const json& pts, bool close) {
+    if (!extent) throw ApiError(404, "id", "job " + m[1].str() + " has no map (maps exist for terrain scenes)");
+    const SceneMap map = scene_map(j.scene_json);
+    auto coordinates = [](const MapFeature& f) {
       json c = json::array();
-      if (!pts.is_array()) return c;
-      for (const auto& p : pts)
-        if (p.is_array() && p.size() >= 2 && p[0].is_number() && p[1].is_number()) c.push_back({p[0], p[1]});
-      if (close && c.size() > 2 && c.front() != c.back()) c.push_back(c.front());
+      for (const auto& p : f.points) c.push_back({p[0], p[1]});
       return c;
     };
-    auto polygon = [&](const json& pts) { return json{{"type", "Polygon"}, {"coordinates", json::array({ring(pts, true)})}}; };
-    auto line = [&](const json& pts) { return json{{"type", "LineString"}, {"coordinates", ring(pts, false)}}; };
-    auto list = [&](const char* key) { return scene.is_object() && scene.contains(key) && scene[key].is_array() ? scene[key] : json::array(); };
+    auto geometry = [&](const MapFeature& f) {
+      return f.polygon ? json{{"type", "Polygon"}, {"coordinates", json::array({coordinates(f)})}}
+                       : json{{"type", "LineString"}, {"coordinates", coordinates(f)}};
+    };
     json structures = json::array(), zones = json::array(), sections = json::array();
-    for (const auto& st : list("structures")) {
-      json geom = st.contains("polygon") ? polygon(st["polygon"]) : line(st.value("axis", json::array()));
-      structures.push_back({{"name", st.value("name", "")}, {"type", st.value("type", "")}, {"geometry", geom}});
-    }
-    for (const auto& z : list("protected_zones"))
-      zones.push_back({{"name", z.value("name", "")}, {"geometry", polygon(z.value("polygon", json::array()))}});
-    for (const auto& mon : list("monitors"))
-      if (mon.value("type", "") == "section" && mon.contains("line"))
-        sections.push_back({{"name", mon.value("name", "")}, {"series", "section_" + mon.value("name", "")},
-                            {"geometry", line(mon["line"])}});
+    for (const auto& st : map.structures)
+      structures.push_back({{"name", st.name}, {"type", st.type}, {"geometry", geometry(st)}});
+    for (const auto& z : map.protected_zones) zones.push_back({{"name", z.name}, {"geometry", geometry(z)}});
+    for (const auto& sec : map.sections)
+      sections.push_back({{"name", sec.name}, {"series", "section_" + sec.name}, {"geometry", geometry(sec)}});
     json release = nullptr;
-    if (scene.is_object() && scene.contains("release") && scene["release"].is_object() && scene["release"].contains("polygon"))
-      release = {{"geometry", polygon(scene["release"]["polygon"])}};
+    if (map.release) release = {{"geometry", geometry(*map.release)}};
+    const MapExtent& g = *extent;
     const std::string self = kPrefix + "/jobs/" + m[1].str();
     send_json(res, 200,
               {{"job", j.id},
                {"run_id", run},
                {"image", self + "/map.png"},
-               {"crs", terrain::crs_name(g.crs_wkt)},
+               {"crs", g.crs},
                {"raster",
                 {{"nx", g.nx}, {"ny", g.ny}, {"dx", g.dx}, {"dy", g.dy},
-                 {"west", g.x0}, {"north", g.y0}, {"east", g.x1()}, {"south", g.y1()}}},
+                 {"west", g.west}, {"north", g.north}, {"east", g.east}, {"south", g.south}}},
                {"structures", structures},
                {"protected_zones", zones},
                {"release", release},

@@ -25,7 +25,6 @@
 #include "requests.hpp"
 #include "runout/scenarios/store.hpp"
 #include "runout/scenarios/study.hpp"
-#include "runout/terrain/raster.hpp"
 #include "sweep_launcher.hpp"
 #include "web_files.hpp"
 
