@@ -265,15 +265,58 @@ class StructureLoad final : public Monitor<D> {
   std::vector<std::array<real, 3>> history_;
 };
 
+// The descriptors: what a scene writes for each type (docs/scene-format.md, "Monitors").
+template <template <int> class M>
+MonitorType monitor_type_of(std::string name, std::string doc, std::vector<FieldSpec> fields) {
+  return {std::move(name), std::move(doc), std::move(fields),
+          [](const MonitorSpec& s, const Solver<2>& v) { return std::make_unique<M<2>>(s, v); },
+          [](const MonitorSpec& s, const Solver<3>& v) { return std::make_unique<M<3>>(s, v); }};
+}
+
+FieldSpec normal_field() {
+  FieldSpec f = shaped_field("normal", "vector", "the direction the flow pushes the structure (one number per axis, not all zero)",
+                             false);
+  f.parameters = {{"normal", "", 0.0, -1.0, 1.0, false, false, false, "a component of the normal"}};
+  f.default_text = "on terrain the structure's downstream normal, otherwise the force magnitude";
+  return f;
+}
+
+const MonitorType section_type = monitor_type_of<SectionGauge>(
+    "section", "discharge and volume through a cross-section line; the front's arrival",
+    {shaped_field("line", "polyline", "the gauge line: at least 2 [x, y] points (map coordinates on terrain, m)", true,
+                  3, 2),
+     number_field({"x", "m", 0.0, -1e7, 1e7, false, false, true, "the section's x"}, 2),
+     number_field({"arrival_volume", "m3", 0.0, 0.0, 1e12, false, false, false,
+                   "flow volume past the section that marks the front's arrival (m2 in 2D)"},
+                  0, "0.5% of the flow volume at the start")});
+
+const MonitorType structure_load_type = monitor_type_of<StructureLoad>(
+    "structure_load", "force and pressure of the flow on a tagged boundary or terrain structure",
+    {shaped_field("structure", "string", "a boundary's tag or a terrain structure's name"), normal_field()});
+
 }  // namespace
+
+// The registration list: one line per monitor type, in the order scenes and docs list them.
+const std::vector<const MonitorType*>& monitor_types() {
+  static const std::vector<const MonitorType*> types = {
+      &section_type,
+      &structure_load_type,
+  };
+  return types;
+}
+
+const MonitorType& monitor_type(const std::string& name) { return find_model(monitor_types(), name, "monitor type"); }
 
 template <int D>
 const std::map<std::string, MonitorFactory<D>>& monitor_registry() {
-  static const std::map<std::string, MonitorFactory<D>> registry = {
-      {"section", [](const MonitorSpec& s, const Solver<D>& v) { return std::make_unique<SectionGauge<D>>(s, v); }},
-      {"structure_load",
-       [](const MonitorSpec& s, const Solver<D>& v) { return std::make_unique<StructureLoad<D>>(s, v); }},
-  };
+  static const std::map<std::string, MonitorFactory<D>> registry = [] {
+    std::map<std::string, MonitorFactory<D>> r;
+    for (const auto* t : monitor_types()) {
+      if constexpr (D == 2) r[t->name] = t->make_2d;
+      else r[t->name] = t->make_3d;
+    }
+    return r;
+  }();
   return registry;
 }
 

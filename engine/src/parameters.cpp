@@ -61,4 +61,35 @@ ParameterValues resolve_parameters(const std::vector<ParameterSpec>& specs, cons
   return out;
 }
 
+FieldSpec shaped_field(std::string key, std::string shape, std::string doc, bool required, int dimensions,
+                       size_t min_points) {
+  FieldSpec f;
+  f.key = std::move(key);
+  f.shape = std::move(shape);
+  f.doc = std::move(doc);
+  f.required = required;
+  f.dimensions = dimensions;
+  f.min_points = min_points;
+  return f;
+}
+
+FieldSpec number_field(const ParameterSpec& p, int dimensions, std::string default_text) {
+  FieldSpec f = shaped_field(p.key, "number", p.doc, p.required, dimensions);
+  f.parameters = {p};
+  f.default_text = std::move(default_text);
+  return f;
+}
+
+const ParameterSpec& parameter_spec(const std::vector<ParameterSpec>& specs, const std::string& key) {
+  for (const auto& p : specs)
+    if (p.key == key) return p;
+  throw std::invalid_argument("parameter_spec: '" + key + "' is not declared");
+}
+
+const FieldSpec& field_spec(const std::vector<FieldSpec>& fields, const std::string& key) {
+  for (const auto& f : fields)
+    if (f.key == key) return f;
+  throw std::invalid_argument("field_spec: '" + key + "' is not declared");
+}
+
 }  // namespace runout

@@ -4,8 +4,11 @@
 #include <sstream>
 
 #include "runout/engine/kernels.hpp"
+#include "runout/engine/monitors.hpp"
 #include "runout/engine/rheology.hpp"
 #include "runout/engine/solver.hpp"
+#include "runout/scenarios/scene.hpp"
+#include "runout/terrain/terrain.hpp"
 
 namespace runout {
 namespace {
@@ -18,6 +21,86 @@ json number_schema(const ParameterSpec& p) {
   if (std::isfinite(p.hi)) s[p.hi_open ? "exclusiveMaximum" : "maximum"] = p.hi;
   if (!p.required) s["default"] = p.default_value;
   return s;
+}
+
+std::string dimensions_note(int dimensions) {
+  return dimensions ? " (only in " + std::to_string(dimensions) + "D scenes)" : "";
+}
+
+json point_array(size_t min_points) {
+  json point = {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2}, {"maxItems", 2}};
+  return {{"type", "array"}, {"items", point}, {"minItems", min_points}};
+}
+
+// One declared key: its JSON shape, range and doc (a computed default said in the description).
+json field_schema(const FieldSpec& f) {
+  json s;
+  if (f.shape == "number") {
+    s = number_schema(f.parameters.front());
+    if (!f.default_text.empty()) s.erase("default");
+  } else if (f.shape == "polyline") {
+    s = point_array(f.min_points);
+  } else if (f.shape == "vector") {
+    json item = number_schema(f.parameters.front());
+    item.erase("default");
+    s = {{"type", "array"}, {"items", item}};
+  } else if (f.shape == "object") {
+    json props = json::object(), required = json::array();
+    for (const auto& p : f.parameters) {
+      props[p.key] = number_schema(p);
+      if (p.required) required.push_back(p.key);
+    }
+    s = {{"type", "object"}, {"properties", props}, {"required", required}, {"additionalProperties", false}};
+  } else if (f.shape == "indices") {
+    s = {{"type", "array"}, {"items", {{"type", "integer"}, {"minimum", 0}}}};
+  } else {
+    s = {{"type", f.shape}};
+  }
+  s["description"] = f.doc + dimensions_note(f.dimensions) +
+                     (f.default_text.empty() ? "" : "; default: " + f.default_text);
+  return s;
+}
+
+// A model chosen by "type": the type's name, a unique name, and its declared keys.
+json typed_schema(const std::string& name, const std::string& doc, const std::vector<FieldSpec>& fields) {
+  json props = {{"type", {{"const", name}, {"description", doc}}}, {"name", {{"type", "string"}}}};
+  json required = {"type", "name"};
+  for (const auto& f : fields) {
+    props[f.key] = field_schema(f);
+    if (f.required && f.dimensions == 0) required.push_back(f.key);
+  }
+  return {{"type", "object"}, {"properties", props}, {"required", required}, {"additionalProperties", false}};
+}
+
+json monitors_schema() {
+  json alts = json::array();
+  for (const auto* t : monitor_types()) alts.push_back(typed_schema(t->name, t->doc, t->fields));
+  return {{"type", "array"}, {"items", {{"oneOf", alts}}}};
+}
+
+json structures_schema() {
+  json alts = json::array();
+  for (const auto* t : terrain::structure_types()) alts.push_back(typed_schema(t->name, t->doc, t->fields));
+  return {{"type", "array"}, {"items", {{"oneOf", alts}}}};
+}
+
+json numerics_schema() {
+  json props = {{"kernel", {{"enum", kernel_names()}}},
+                {"integrator", {{"enum", integrator_names()}}},
+                {"density_diffusion", {{"enum", density_diffusion_names()}}},
+                {"boundary_pressure", {{"enum", boundary_pressure_names()}}},
+                {"density_floor", {{"type", "boolean"}}}};
+  for (const auto& f : numerics_choice_fields()) {
+    props[f.key]["description"] = f.doc;
+    if (f.key != "boundary_pressure") props[f.key]["default"] = f.default_text == "false" ? json(false) : json(f.default_text);
+  }
+  for (const auto& p : numerics_parameters()) {
+    props[p.key] = number_schema(p);
+    if (p.integer) props[p.key]["type"] = "integer";
+  }
+  for (const auto& f : scene_numerics_fields()) props[f.key] = field_schema(f);
+  props["viscosity_cap"] = {{"anyOf", {field_schema(field_spec(scene_numerics_fields(), "viscosity_cap")), {{"const", "auto"}}}}};
+  return {{"type", "object"}, {"properties", props}, {"additionalProperties", false}};
 }
 
 json material_schema(const RheologyModel& m) {
@@ -37,15 +120,6 @@ json material_schema(const RheologyModel& m) {
 json scene_schema() {
   json materials = json::array();
   for (const auto* m : rheology_models()) materials.push_back(material_schema(*m));
-  json numerics_props = {{"kernel", {{"enum", kernel_names()}, {"default", kernel_names().front()}}},
-                         {"integrator", {{"enum", integrator_names()}, {"default", "symplectic"}}},
-                         {"density_diffusion", {{"enum", density_diffusion_names()}, {"default", "fourtakas"}}},
-                         {"boundary_pressure", {{"enum", boundary_pressure_names()}}}};
-  for (const auto& p : numerics_parameters()) {
-    numerics_props[p.key] = number_schema(p);
-    if (p.integer) numerics_props[p.key]["type"] = "integer";
-  }
-  json numerics = {{"type", "object"}, {"properties", numerics_props}};
   auto object = json{{"type", "object"}};
   auto array_of_objects = json{{"type", "array"}, {"items", object}};
   return {{"$schema", "https://json-schema.org/draft/2020-12/schema"},
@@ -62,19 +136,24 @@ json scene_schema() {
             {"duration", {{"type", "number"}}},
             {"gravity", {{"type", "array"}, {"items", {{"type", "number"}}}}},
             {"materials", {{"type", "array"}, {"minItems", 1}, {"maxItems", 16}, {"items", {{"oneOf", materials}}}}},
-            {"numerics", numerics},
+            {"numerics", numerics_schema()},
             {"fluid", array_of_objects},
             {"inlets", array_of_objects},
             {"boundaries", array_of_objects},
             {"domain", object},
             {"output", object},
             {"limits", object},
-            {"monitors", array_of_objects},
+            {"monitors", monitors_schema()},
             {"terrain", object},
             {"release", object},
-            {"structures", array_of_objects},
+            {"structures", structures_schema()},
             {"protected_zones", array_of_objects},
             {"fidelity", object}}}};
+}
+
+// "[0, 90)", "(0, 1e8]": a range as the docs write it.
+std::string range_text(const ParameterSpec& p) {
+  return std::string(p.lo_open ? "(" : "[") + format_number(p.lo) + ", " + format_number(p.hi) + (p.hi_open ? ")" : "]");
 }
 
 // Markdown table cells: a '|' (|gamma_dot|) would end the cell.
@@ -94,8 +173,7 @@ std::string material_parameter_tables() {
     }
     s << "| field | default | unit | accepted | meaning |\n|---|---|---|---|---|\n";
     for (const auto& p : m->parameters) {
-      const std::string range = std::string(p.lo_open ? "(" : "[") + format_number(p.lo) + ", " +
-                                format_number(p.hi) + (p.hi_open ? ")" : "]");
+      const std::string range = range_text(p);
       s << "| `" << p.key << "` | " << (p.required ? std::string("**required**") : "`" + format_number(p.default_value) + "`")
         << " | " << (p.unit.empty() ? "–" : p.unit) << " | " << range << " | " << cell(p.doc) << " |\n";
     }
@@ -103,5 +181,51 @@ std::string material_parameter_tables() {
   }
   return s.str();
 }
+
+namespace {
+
+std::string shape_text(const FieldSpec& f) {
+  if (f.shape == "polyline") return "array of ≥ " + std::to_string(f.min_points) + " `[x, y]`";
+  if (f.shape == "vector") return "array of `dimensions` numbers";
+  if (f.shape == "indices") return "array of integers";
+  return f.shape;
+}
+
+// One row per declared key (an object's members as `key.member`).
+void field_rows(std::ostringstream& s, const FieldSpec& f) {
+  const std::string dims = f.dimensions ? " (" + std::to_string(f.dimensions) + "D)" : "";
+  std::string def = f.required ? "**required**" : f.default_text.empty() ? "–" : cell(f.default_text);
+  std::string unit = "–", range = "–";
+  if (f.shape == "number" || f.shape == "vector") {
+    const ParameterSpec& p = f.parameters.front();
+    if (f.shape == "number" && !f.required && f.default_text.empty()) def = "`" + format_number(p.default_value) + "`";
+    unit = p.unit.empty() ? "–" : p.unit;
+    range = range_text(p);
+  }
+  s << "| `" << f.key << "`" << dims << " | " << shape_text(f) << " | " << def << " | " << unit << " | " << range
+    << " | " << cell(f.doc) << " |\n";
+  if (f.shape != "object") return;
+  for (const auto& p : f.parameters)
+    s << "| `" << f.key << "." << p.key << "` | number | "
+      << (p.required ? std::string("**required**") : "`" + format_number(p.default_value) + "`") << " | "
+      << (p.unit.empty() ? "–" : p.unit) << " | " << range_text(p) << " | " << cell(p.doc) << " |\n";
+}
+
+template <class Types>
+std::string type_tables(const Types& types) {
+  std::ostringstream s;
+  for (const auto* t : types) {
+    s << "`" << t->name << "`: " << cell(t->doc) << ".\n\n";
+    s << "| field | shape | default | unit | accepted | meaning |\n|---|---|---|---|---|---|\n";
+    for (const auto& f : t->fields) field_rows(s, f);
+    s << "\n";
+  }
+  return s.str();
+}
+
+}  // namespace
+
+std::string monitor_type_tables() { return type_tables(monitor_types()); }
+std::string structure_type_tables() { return type_tables(terrain::structure_types()); }
 
 }  // namespace runout

@@ -10,6 +10,8 @@
 #include "runout/engine/solver.hpp"
 #include "runout/scenarios/scene.hpp"
 #include "runout/scenarios/schema.hpp"
+#include "runout/engine/monitors.hpp"
+#include "runout/terrain/terrain.hpp"
 
 using json = nlohmann::json;
 using namespace runout;
@@ -102,5 +104,94 @@ TEST(Schema, DocsNumericsTableAgreesWithTheDescriptors) {
                               (p.hi_open ? ")" : "]");
     EXPECT_NE(row.find("`" + format_number(p.default_value) + "`"), std::string::npos) << p.key << " default: " << row;
     EXPECT_NE(row.find(range), std::string::npos) << p.key << " range " << range << ": " << row;
+  }
+}
+
+// The monitors' and structures' tables of docs/scene-format.md are generated from their descriptors.
+namespace {
+void check_generated_block(const std::string& marker, const std::string& want) {
+  const std::string begin = "<!-- " + marker + ":begin -->\n", end = "<!-- " + marker + ":end -->";
+  std::string doc = read(kDoc);
+  const auto b = doc.find(begin), e = doc.find(end);
+  ASSERT_NE(b, std::string::npos) << kDoc << " lost its " << begin;
+  ASSERT_NE(e, std::string::npos);
+  const std::string have = doc.substr(b + begin.size(), e - b - begin.size());
+  if (have != want && std::getenv("RUNOUT_REGENERATE_DOCS")) {
+    doc.replace(b + begin.size(), e - b - begin.size(), want);
+    std::ofstream(kDoc) << doc;
+    GTEST_SKIP() << "rewrote the " << marker << " tables of " << kDoc;
+  }
+  EXPECT_EQ(have, want) << kDoc << " differs from the descriptors: RUNOUT_REGENERATE_DOCS=1 "
+                        << "build/tests/scenarios_schema_test rewrites it";
+}
+}  // namespace
+
+TEST(Schema, DocsMonitorTablesMatchTheDescriptors) { check_generated_block("monitor-types", monitor_type_tables()); }
+TEST(Schema, DocsStructureTablesMatchTheDescriptors) {
+  check_generated_block("structure-types", structure_type_tables());
+}
+
+// Every monitor and structure type is an alternative of its section, with its declared keys and nothing else.
+TEST(Schema, EveryMonitorAndStructureTypeIsAnAlternativeWithItsKeys) {
+  const json s = scene_schema();
+  auto check = [](const json& alts, const std::string& name, const std::vector<FieldSpec>& fields) {
+    for (const auto& alt : alts) {
+      if (alt["properties"]["type"]["const"] != name) continue;
+      EXPECT_FALSE(alt["additionalProperties"].get<bool>()) << name;
+      EXPECT_EQ(alt["properties"].size(), fields.size() + 2) << name;
+      for (const auto& f : fields) EXPECT_TRUE(alt["properties"].contains(f.key)) << name << "." << f.key;
+      return;
+    }
+    ADD_FAILURE() << "no schema alternative for " << name;
+  };
+  for (const auto* t : monitor_types())
+    check(s["properties"]["monitors"]["items"]["oneOf"], t->name, t->fields);
+  for (const auto* t : terrain::structure_types())
+    check(s["properties"]["structures"]["items"]["oneOf"], t->name, t->fields);
+}
+
+// What a structure's descriptor says of a number's range, the parser enforces (naming the field and the range).
+TEST(Schema, ParserEnforcesTheStructureRanges) {
+  for (const auto* t : terrain::structure_types()) {
+    for (const auto& f : t->fields) {
+      if (f.shape != "number") continue;
+      const ParameterSpec& p = f.parameters.front();
+      json st = {{"type", t->name}, {"name", "s"}, {f.key, p.hi + 1}};
+      const json scene = {{"dimensions", 3}, {"dp", 1}, {"duration", 1}, {"terrain", {{"dem", "none.tif"}}},
+                          {"materials", {{{"name", "m"}, {"rheology", "newtonian"}, {"density", 1000}}}},
+                          {"release", {{"polygon", {{0, 0}, {1, 0}, {1, 1}}}, {"depth", 1}, {"material", "m"}}},
+                          {"structures", {st}}};
+      // The geometry key comes first in every type; give it so the number is what the parser refuses.
+      json with_geometry = scene;
+      const FieldSpec& g = t->fields.front();
+      with_geometry["structures"][0][g.key] = json::array({{0, 0}, {1, 0}, {1, 1}});
+      for (const auto& other : t->fields)
+        if (other.required && other.shape == "number" && other.key != f.key)
+          with_geometry["structures"][0][other.key] = other.parameters.front().hi;
+      if (t->name == "retention_basin")
+        for (const char* k : {"depth", "wall_height"})
+          if (f.key != k) with_geometry["structures"][0][k] = 1;
+      try {
+        parse_scene(with_geometry.dump());
+        ADD_FAILURE() << t->name << "." << f.key << " accepted above its range";
+      } catch (const SceneError& e) {
+        EXPECT_EQ(e.field, "structures[0]." + f.key) << e.what();
+        EXPECT_NE(std::string(e.what()).find("must be a number in"), std::string::npos) << e.what();
+      }
+    }
+  }
+}
+
+// The numerics rows whose defaults the scene computes state their declared ranges too.
+TEST(Schema, DocsNumericsTableAgreesWithTheSceneDescriptors) {
+  const std::string doc = read(kDoc);
+  for (const auto& f : scene_numerics_fields()) {
+    const ParameterSpec& p = f.parameters.front();
+    const auto at = doc.find("| `" + f.key + "` |");
+    ASSERT_NE(at, std::string::npos) << "docs/scene-format.md has no row for numerics." << f.key;
+    const std::string row = doc.substr(at, doc.find('\n', at) - at);
+    const std::string range = std::string(p.lo_open ? "(" : "[") + format_number(p.lo) + ", " + format_number(p.hi) +
+                              (p.hi_open ? ")" : "]");
+    EXPECT_NE(row.find(range), std::string::npos) << f.key << " range " << range << ": " << row;
   }
 }

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "runout/engine/parameters.hpp"
 #include "runout/engine/solver.hpp"
 
 namespace runout {
@@ -51,8 +52,22 @@ class Monitor {
 template <int D>
 using MonitorFactory = std::function<std::unique_ptr<Monitor<D>>(const MonitorSpec&, const Solver<D>&)>;
 
-// Monitor types by name: "section" (cross-section gauge), "structure_load" (force and pressure on a
-// tagged structure).
+// A monitor type as a scene names it: its name, one line of doc, its keys (geometry and numbers, each declared
+// once: the scene parser, `runout schema` and docs/scene-format.md read them) and its factories. One
+// descriptor per type beside its class in src/monitors.cpp, listed once in monitor_types().
+struct MonitorType {
+  std::string name;
+  std::string doc;
+  std::vector<FieldSpec> fields;  // besides "type" and "name"
+  MonitorFactory<2> make_2d;
+  MonitorFactory<3> make_3d;
+};
+const std::vector<const MonitorType*>& monitor_types();
+// Throws std::invalid_argument for an unknown name.
+const MonitorType& monitor_type(const std::string& name);
+
+// Monitor types by name (from monitor_types()): "section" (cross-section gauge), "structure_load" (force and
+// pressure on a tagged structure).
 template <int D>
 const std::map<std::string, MonitorFactory<D>>& monitor_registry();
 

@@ -48,6 +48,13 @@ struct Scene {
   std::string canonical_json;
 };
 
+// The numbers of the numerics section whose defaults the scene computes (speed of sound, depth scale, viscosity
+// cap, boundary density), declared once for the parser, the schema and docs/scene-format.md; the plain-number
+// numerics are the engine's numerics_parameters().
+const std::vector<FieldSpec>& scene_numerics_fields();
+// The choices of the numerics section (kernel, integrator, density_diffusion, boundary_pressure, density_floor).
+const std::vector<FieldSpec>& numerics_choice_fields();
+
 // `base_dir` resolves relative file names in the scene (terrain.dem); load_scene uses the file's folder.
 Scene parse_scene(const std::string& json_text, const std::filesystem::path& base_dir = {});
 Scene load_scene(const std::filesystem::path& path);

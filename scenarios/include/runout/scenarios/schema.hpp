@@ -7,11 +7,15 @@
 
 namespace runout {
 
-// JSON Schema (2020-12) of a scene. Materials are described in full (one alternative per rheology, with each
-// parameter's unit, default, range and doc); the other sections name their accepted keys' types only.
+// JSON Schema (2020-12) of a scene. Materials, monitors and structures are described in full (one alternative
+// per rheology, monitor type and structure type, with each key's unit, default, range and doc), and the
+// numerics' keys; the other sections name their accepted keys' types only.
 nlohmann::json scene_schema();
 
 // The Markdown of docs/scene-format.md between its "material-parameters" markers: one table per rheology.
 std::string material_parameter_tables();
+// Between its "monitor-types" and "structure-types" markers: one table per monitor type and structure type.
+std::string monitor_type_tables();
+std::string structure_type_tables();
 
 }  // namespace runout

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "runout/engine/parameters.hpp"
 #include "runout/engine/types.hpp"
 #include "runout/terrain/raster.hpp"
 
@@ -62,6 +63,19 @@ struct StructureSpec {
   double wall_thickness = 0.0;
   std::optional<std::vector<int>> open_edges;
 };
+
+// A structure type as a scene names it: its name, one line of doc and its keys (geometry and numbers, each
+// declared once), read by the scene parser, `runout schema` and docs/scene-format.md. One descriptor per kind
+// in terrain/src/structure_types.cpp, listed once in structure_types().
+struct StructureType {
+  StructureKind kind;
+  std::string name;  // == kind_name(kind)
+  std::string doc;
+  std::vector<FieldSpec> fields;  // besides "type" and "name"
+};
+const std::vector<const StructureType*>& structure_types();
+// Throws std::invalid_argument for an unknown name.
+const StructureType& structure_type(const std::string& name);
 
 struct ProtectedZone {
   std::string name;

@@ -1,0 +1,147 @@
+// The fluid section: blocks of flow (and a terrain scene's release) as lattices, where they may start, and
+// the particles made from them once the speed of sound is known.
+#include "readers.hpp"
+
+#include <algorithm>
+#include <array>
+
+#include "runout/engine/eos.hpp"
+
+namespace runout::scene_reader {
+namespace {
+
+template <int D>
+void read_fluid_block(Build<D>& b, const json& block, const std::string& path) {
+  Fields f(block, path, {"shape", "min", "max", "origin", "size", "angle", "material"});
+  f.string_or("shape", "box", {"box"});
+  const OrientedBox<D> box = parse_box<D>(f);
+  const std::string mat = f.string("material");
+  if (!b.material_index.count(mat)) {
+    std::vector<std::string> names;
+    for (const auto& m : b.setup.materials) names.push_back(m.name);
+    throw SceneError(f.at("material"), "no material named '" + mat + "' (defined: " + Fields::join(names) + ")");
+  }
+  Lattice<D> lat = fill_box<D>(box, b.dp);
+  if (lat.points.empty()) throw SceneError(path, "block is thinner than dp = " + fmt(b.dp) + " m");
+  for (const auto& p : lat.points) {
+    b.fluid_top = std::max(b.fluid_top, p[D - 1] + 0.5 * b.dp);
+    b.fluid_bottom = std::min(b.fluid_bottom, p[D - 1] - 0.5 * b.dp);
+  }
+  b.pending.push_back({std::move(lat), b.material_index[mat]});
+}
+
+template <int D>
+void add_release(Build<D>& b) {
+  Lattice<D> lat;
+  for (size_t q = 0; q < b.tmodel->fluid.size(); ++q) {
+    Vec<D> p;
+    for (int d = 0; d < D; ++d) p[d] = b.tmodel->fluid[q][d];
+    lat.points.push_back(p);
+    lat.depth.push_back(b.tmodel->fluid_depth[q]);
+    b.fluid_top = std::max(b.fluid_top, p[D - 1] + 0.5 * b.dp);
+    b.fluid_bottom = std::min(b.fluid_bottom, p[D - 1] - 0.5 * b.dp);
+  }
+  b.pending.push_back({std::move(lat), b.material_index[b.release_material]});
+}
+
+// Fluid must start outside every wall (inside one it leaks on the first step).
+template <int D>
+void check_outside_walls(const Build<D>& b) {
+  for (size_t k = 0; k < b.pending.size(); ++k) {
+    for (const auto& p : b.pending[k].lattice.points) {
+      for (const auto& r : b.setup.leak_regions) {
+        if (!r.contains(p)) continue;
+        std::ostringstream s;
+        s << "a particle at (";
+        for (int d = 0; d < D; ++d) s << (d ? ", " : "") << p[d];
+        s << ") m starts inside the wall of boundaries[" << r.tag - 1 << "] ('" << b.scene.boundary_tags[r.tag]
+          << "'): fluid must start outside walls";
+        throw SceneError(item("fluid", k), s.str());
+      }
+    }
+  }
+}
+
+// Blocks must not overlap. Cells of size dp: two particles closer than dp/2 are in the same or a
+// neighbouring cell.
+template <int D>
+void check_no_overlap(const Build<D>& b) {
+  const real dp = b.dp;
+  std::map<std::array<long, D>, std::vector<std::pair<size_t, Vec<D>>>> cells;
+  auto cell_of = [&](const Vec<D>& p) {
+    std::array<long, D> c;
+    for (int d = 0; d < D; ++d) c[d] = static_cast<long>(std::floor(p[d] / dp));
+    return c;
+  };
+  for (size_t k = 0; k < b.pending.size(); ++k) {
+    for (const auto& p : b.pending[k].lattice.points) {
+      const auto c = cell_of(p);
+      for (int o = 0; o < (D == 2 ? 9 : 27); ++o) {
+        std::array<long, D> n = c;
+        int rem = o;
+        for (int d = 0; d < D; ++d, rem /= 3) n[d] += rem % 3 - 1;
+        auto it = cells.find(n);
+        if (it == cells.end()) continue;
+        for (const auto& [other, q] : it->second)
+          if (other != k && (q - p).norm() < 0.5 * dp)
+            throw SceneError(item("fluid", k),
+                             "overlaps fluid[" + std::to_string(other) + "]: fluid blocks must not overlap");
+      }
+      cells[c].push_back({k, p});
+    }
+  }
+}
+
+}  // namespace
+
+// Fluid blocks (none needed when inlets bring the flow in).
+template <int D>
+void read_fluid(Build<D>& b) {
+  const bool has_inlets = b.top.has("inlets");
+  if (!b.top.has("fluid") && !b.tmodel && !has_inlets)
+    throw SceneError("fluid", "missing (required: a non-empty array of fluid blocks, or inlets)");
+  const json& fluid = b.top.has("fluid") ? b.top.raw("fluid") : json::array();
+  if (!fluid.is_array() || (fluid.empty() && !b.tmodel && !has_inlets))
+    throw SceneError("fluid", "must be a non-empty array of fluid blocks");
+  for (size_t k = 0; k < fluid.size(); ++k) read_fluid_block(b, fluid[k], item("fluid", k));
+  if (b.tmodel) add_release(b);
+}
+
+template <int D>
+void check_fluid_placement(const Build<D>& b) {
+  check_outside_walls(b);
+  if (b.pending.size() > 1) check_no_overlap(b);
+}
+
+// Fluid particles, with a hydrostatic initial density (less start-up shock than rho0 everywhere), and the
+// boundary particles at the boundary density; then the exact count against the limit.
+template <int D>
+void make_particles(Build<D>& b) {
+  const SolverConfig& cfg = b.cfg;
+  SceneSetup<D>& setup = b.setup;
+  const real dp = b.dp;
+  for (const auto& pf : b.pending) {
+    const real rho0 = setup.materials[pf.material].density;
+    const TaitEOS eos(cfg.speed_of_sound, rho0, cfg.eos_gamma);
+    for (size_t q = 0; q < pf.lattice.points.size(); ++q) {
+      const real p = rho0 * b.g_mag * pf.lattice.depth[q];
+      const real rho = eos.density(p);
+      setup.fluid.add(pf.lattice.points[q], rho, rho0 * std::pow(dp, D), pf.material, 0);
+    }
+  }
+  const real bmass = cfg.boundary_density * std::pow(dp, D);
+  for (const auto& [p, tag] : b.bparticles) setup.boundary.add(p, cfg.boundary_density, bmass, 0, tag);
+  const long total = static_cast<long>(setup.fluid.size() + setup.boundary.size());
+  if (total > b.scene.max_particles)
+    throw SceneError("dp", "the scene has " + std::to_string(total) + " particles, over limits.max_particles = " +
+                               std::to_string(b.scene.max_particles));
+}
+
+template void read_fluid<2>(Build<2>&);
+template void read_fluid<3>(Build<3>&);
+template void check_fluid_placement<2>(const Build<2>&);
+template void check_fluid_placement<3>(const Build<3>&);
+template void make_particles<2>(Build<2>&);
+template void make_particles<3>(Build<3>&);
+
+}  // namespace runout::scene_reader

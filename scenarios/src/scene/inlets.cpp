@@ -1,0 +1,90 @@
+// The inlets section: velocity inlets across a vertical plane (engine InletSpec); the speed is given, or the
+// discharge over the opening's area as the buffer fills it (whole particles: floor(size / dp) per axis).
+#include "readers.hpp"
+
+#include <algorithm>
+
+namespace runout::scene_reader {
+namespace {
+
+// The opening's extent across the plane; returns its area (whole particles per axis).
+template <int D>
+real read_opening(const Fields& f, real dp, InletSpec<D>& in) {
+  const auto lo = f.vector("min", D - 1), hi = f.vector("max", D - 1);
+  real area = 1;
+  for (int a = 0; a < D - 1; ++a) {
+    in.lo[a] = lo[a];
+    in.hi[a] = hi[a];
+    const real n = std::floor((hi[a] - lo[a]) / dp + 1e-9);
+    if (n < 1)
+      throw SceneError(f.at("max"), "must exceed min by at least dp = " + fmt(dp) + " m on every axis (got " +
+                                        fmt(hi[a] - lo[a]) + " m)");
+    area *= n * dp;
+  }
+  return area;
+}
+
+// speed or discharge: a number, or a hydrograph of [t, value] pairs; discharges become speeds over `area`.
+template <int D>
+void read_speed(const Fields& f, const std::string& path, real area, InletSpec<D>& in) {
+  if (f.has("speed") == f.has("discharge"))
+    throw SceneError(path, "give exactly one of speed (m/s) and discharge (m3/s; m2/s in 2D)");
+  const std::string key = f.has("speed") ? "speed" : "discharge";
+  const real scale = key == "speed" ? 1.0 : 1.0 / area;
+  const json& v = f.raw(key);
+  if (v.is_number()) {
+    in.speed.push_back({0.0, scale * Fields::check_number(v, f.at(key), 0.0, 1e6, false, false)});
+  } else if (v.is_array() && !v.empty()) {
+    for (size_t q = 0; q < v.size(); ++q) {
+      const std::string at = f.at(key) + "[" + std::to_string(q) + "]";
+      if (!v[q].is_array() || v[q].size() != 2) throw SceneError(at, "must be a [t (s), value] pair");
+      const real t = Fields::check_number(v[q][0], at + "[0]", 0.0, 1e7, false, false);
+      if (q > 0 && !(t > in.speed.back()[0])) throw SceneError(at + "[0]", "times must increase");
+      in.speed.push_back({t, scale * Fields::check_number(v[q][1], at + "[1]", 0.0, 1e6, false, false)});
+    }
+  } else {
+    throw SceneError(f.at(key), "must be a number >= 0 or an array of [t, value] pairs (a hydrograph)");
+  }
+}
+
+template <int D>
+InletSpec<D> read_inlet(Build<D>& b, const json& j, size_t k, const std::vector<std::string>& dirs) {
+  const std::string path = item("inlets", k);
+  Fields f(j, path, {"name", "material", "direction", "at", "min", "max", "speed", "discharge"});
+  InletSpec<D> in;
+  in.name = f.string_or("name", "inlet" + std::to_string(k + 1));
+  const std::string mat = f.string("material");
+  if (!b.material_index.count(mat)) throw SceneError(f.at("material"), "no material named '" + mat + "'");
+  in.material = b.material_index[mat];
+  const std::string dir = f.string("direction", dirs);
+  in.axis = dir[1] == 'x' ? 0 : 1;
+  in.direction = dir[0] == '+' ? 1 : -1;
+  in.at = f.number("at", -1e7, 1e7);
+  const real area = read_opening(f, b.dp, in);
+  read_speed(f, path, area, in);
+  return in;
+}
+
+}  // namespace
+
+template <int D>
+void read_inlets(Build<D>& b) {
+  if (!b.top.has("inlets")) return;
+  if (b.tmodel) throw SceneError("inlets", "inlets are for scenes without terrain (flumes, channels) in this version");
+  const json& ins = b.top.raw("inlets");
+  if (!ins.is_array() || ins.empty()) throw SceneError("inlets", "must be a non-empty array of inlet objects");
+  std::vector<std::string> dirs = {"+x", "-x"};
+  if (D == 3) dirs.insert(dirs.end(), {"+y", "-y"});
+  for (size_t k = 0; k < ins.size(); ++k) {
+    InletSpec<D> in = read_inlet(b, ins[k], k, dirs);
+    for (const auto& sp : in.speed) b.inlet_speed_max = std::max(b.inlet_speed_max, sp[1]);
+    b.fluid_top = std::max(b.fluid_top, in.hi[D - 2]);
+    b.fluid_bottom = std::min(b.fluid_bottom, in.lo[D - 2]);
+    b.setup.inlets.push_back(std::move(in));
+  }
+}
+
+template void read_inlets<2>(Build<2>&);
+template void read_inlets<3>(Build<3>&);
+
+}  // namespace runout::scene_reader

@@ -1,0 +1,160 @@
+// The numerics section: the engine's plain numbers (numerics_parameters()), the named choices, and the
+// numbers whose defaults the scene computes (scene_numerics_fields()).
+#include "readers.hpp"
+
+#include <algorithm>
+
+#include "runout/engine/kernels.hpp"
+#include "runout/engine/rheology.hpp"
+
+namespace runout {
+
+const std::vector<FieldSpec>& scene_numerics_fields() {
+  static const std::vector<FieldSpec> fields = {
+      number_field({"speed_of_sound", "m/s", 0.0, 0.0, 1e5, true, false, false, "c0 of the Tait equation of state"}, 0,
+                   "beta max(sqrt(g H), inflow speed; on terrain sqrt(2 g E))"),
+      number_field({"depth_scale", "m", 0.0, 0.0, 1e5, true, false, false, "H in the default c0 = beta sqrt(g H)"}, 0,
+                   "fluid top to the lowest particle (terrain: the release depth)"),
+      number_field({"viscosity_cap", "Pa s", 0.0, 0.0, 1e12, true, false, false,
+                    "upper bound on mu_eff, or \"auto\" (the viscous time step's bound)"},
+                   0, "\"auto\""),
+      number_field({"boundary_density", "kg/m3", 0.0, 0.0, 1e5, true, false, false, "density of wall particles"}, 0,
+                   "the first material's density"),
+  };
+  return fields;
+}
+
+namespace {
+FieldSpec choice_field(const std::string& key, const std::string& doc, const std::string& default_text) {
+  FieldSpec f = shaped_field(key, "string", doc, false);
+  f.default_text = default_text;
+  return f;
+}
+}  // namespace
+
+const std::vector<FieldSpec>& numerics_choice_fields() {
+  static const std::vector<FieldSpec> fields = {
+      choice_field("kernel", "the smoothing kernel", kernel_names().front()),
+      choice_field("integrator", "the time integrator", integrator_names().front()),
+      choice_field("density_diffusion", "the density-diffusion term", density_diffusion_names().back()),
+      choice_field("boundary_pressure", "how wall particles get their pressure", "dbc; extrapolated with inlets"),
+      [] {
+        FieldSpec f = choice_field("density_floor", "floor the density under rho0 (granular materials)", "false");
+        f.shape = "boolean";
+        return f;
+      }(),
+  };
+  return fields;
+}
+
+namespace scene_reader {
+namespace {
+
+const ParameterSpec& scene_numeric(const std::string& key) {
+  return field_spec(scene_numerics_fields(), key).parameters.front();
+}
+
+const std::string& default_choice(const std::string& key) { return field_spec(numerics_choice_fields(), key).default_text; }
+
+Fields numerics_fields(const json& j) {
+  std::set<std::string> keys;
+  for (const auto& p : numerics_parameters()) keys.insert(p.key);
+  for (const auto& f : scene_numerics_fields()) keys.insert(f.key);
+  for (const auto& f : numerics_choice_fields()) keys.insert(f.key);
+  return Fields(j.contains("numerics") ? j["numerics"] : json::object(), "numerics", keys);
+}
+
+// c0: explicit, or beta sqrt(g H) with H the depth scale (default: fluid top to the lowest particle).
+// On terrain the lowest particle is far down the valley, not under the flow. There the speed scale is the
+// energy line's: a block sliding at the travel angle reaches sqrt(2 g E) with E the energy height, and
+// c0 = beta max(sqrt(g d), sqrt(2 g E)) keeps the Mach number under 1/beta (conservative: the real flow
+// loses more than the travel angle says). An explicit speed_of_sound trades that margin for speed.
+template <int D>
+real speed_of_sound(const Build<D>& b, const Fields& num) {
+  const real dp = b.dp;
+  const real default_depth =
+      b.tmodel ? std::max<real>(b.tmodel->release_depth, dp) : std::max(b.fluid_top - b.bottom, dp);
+  const ParameterSpec& h = scene_numeric("depth_scale");
+  const real depth_scale = num.number_or(h.key, default_depth, h.lo, h.hi, h.lo_open, h.hi_open);
+  const real beta = read_parameter(num, numerics_parameter("speed_of_sound_beta"));
+  real speed_scale = std::sqrt(std::max(b.g_mag, 1e-3) * depth_scale);
+  if (b.tmodel && !num.has("depth_scale"))
+    speed_scale = std::max(speed_scale, std::sqrt(2.0 * std::max(b.g_mag, 1e-3) * b.tmodel->max_energy_height));
+  speed_scale = std::max(speed_scale, b.inlet_speed_max);  // inflow faster than its sqrt(g H)
+  const ParameterSpec& c = scene_numeric("speed_of_sound");
+  return num.has(c.key) ? num.number(c.key, c.lo, c.hi, c.lo_open, c.hi_open) : beta * speed_scale;
+}
+
+void read_viscosity_cap(const Fields& num, SolverConfig& cfg) {
+  if (!num.has("viscosity_cap")) return;
+  const json& cap = num.raw("viscosity_cap");
+  if (cap.is_string()) {
+    Fields::check_choice(num.at("viscosity_cap"), cap.get<std::string>(), {"auto"});
+    cfg.max_viscosity = 0;
+  } else {
+    const ParameterSpec& p = scene_numeric("viscosity_cap");
+    cfg.max_viscosity = Fields::check_number(cap, num.at("viscosity_cap"), p.lo, p.hi, p.lo_open, p.hi_open);
+  }
+}
+
+// Inlets need walls without memory: a DBC wall particle under a buffer that moves over it gains density
+// from the one-sided inflow at the plane and never loses it (its density is floored at rho0), until it
+// throws the new flow off the bed (measured: tests/engine/inlet_test.cpp detaches at t < 0.2 s with dbc).
+template <int D>
+void read_walls(const Build<D>& b, const Fields& num, SolverConfig& cfg) {
+  const std::string bp_default = b.setup.inlets.empty() ? "dbc" : "extrapolated";
+  cfg.boundary_pressure =
+      boundary_pressure_from_name(num.string_or("boundary_pressure", bp_default, boundary_pressure_names()));
+  if (!b.setup.inlets.empty() && cfg.boundary_pressure == BoundaryPressure::dbc)
+    throw SceneError("numerics.boundary_pressure", "must be 'extrapolated' in a scene with inlets (accepted: extrapolated)");
+  const ParameterSpec& p = scene_numeric("boundary_density");
+  cfg.boundary_density = num.number_or(p.key, b.setup.materials[0].density, p.lo, p.hi, p.lo_open, p.hi_open);
+}
+
+// Verlet's leapfrog (v_{n+1} = v_{n-1} + 2 dt a_n) has a computational mode that a viscous force taken at
+// level n drives unstably; the Euler step every verlet_reset_steps holds it down for a liquid's viscosity,
+// not for a viscoplastic material, whose mu_eff sits at the cap (at the viscous time-step limit) wherever
+// it rests. Measured: a friction column blew up within 5 ms, a Bingham channel reached Mach 1.3, a plain
+// HBP column Mach 0.43 against 0.05 (docs/design.md, "Time stepping and guards").
+void check_verlet(const std::vector<MaterialParams>& materials, const Fields& num) {
+  for (const auto& m : materials)
+    if (!rheology_model(m.rheology).traits.verlet_stable)
+      throw SceneError(num.at("integrator"),
+                       "verlet cannot carry material '" + m.name + "' (" + m.rheology +
+                           "): its effective viscosity reaches the cap where it rests, and Verlet's leapfrog is "
+                           "unstable under it; use symplectic (accepted here: symplectic)");
+}
+
+}  // namespace
+
+template <int D>
+void read_numerics(Build<D>& b) {
+  SolverConfig& cfg = b.cfg;
+  const Fields num = numerics_fields(b.j);
+  auto numeric = [&num](const char* key) { return read_parameter(num, numerics_parameter(key)); };
+  cfg.kernel = kernel_from_name(num.string_or("kernel", kernel_names().front(), kernel_names()));
+  cfg.smoothing_length = numeric("smoothing_ratio") * b.dp;
+  cfg.integrator = integrator_from_name(num.string_or("integrator", default_choice("integrator"), integrator_names()));
+  cfg.verlet_reset_steps = static_cast<int>(numeric("verlet_reset_steps"));
+  cfg.cfl = numeric("cfl");
+  cfg.density_diffusion = density_diffusion_from_name(num.string_or("density_diffusion", default_choice("density_diffusion"), density_diffusion_names()));
+  cfg.density_diffusion_delta = numeric("density_diffusion_delta");
+  cfg.artificial_viscosity = numeric("artificial_viscosity");
+  cfg.speed_of_sound = speed_of_sound(b, num);
+  read_viscosity_cap(num, cfg);
+  cfg.viscosity_cap_factor = numeric("viscosity_cap_factor");
+  cfg.shear_rate_floor = numeric("shear_rate_floor");
+  cfg.min_dt = numeric("min_dt");
+  cfg.density_floor = num.boolean_or("density_floor", false);
+  cfg.max_dilatancy = numeric("max_dilatancy");
+  if (num.has("max_dilatancy") && !cfg.density_floor)
+    throw SceneError(num.at("max_dilatancy"), "sets how far under rho0 the density floor stands: needs numerics.density_floor = true");
+  read_walls(b, num, cfg);
+  if (cfg.integrator == Integrator::verlet) check_verlet(b.setup.materials, num);
+}
+
+template void read_numerics<2>(Build<2>&);
+template void read_numerics<3>(Build<3>&);
+
+}  // namespace scene_reader
+}  // namespace runout

@@ -1,0 +1,182 @@
+// The terrain, release, structures and protected_zones sections (docs/scene-format.md, "Terrain scenes").
+// Structure types come from terrain's registry (structure_types()): their keys, ranges and docs.
+#include "readers.hpp"
+
+#include <algorithm>
+
+namespace runout::scene_reader {
+namespace {
+
+using terrain::StructureSpec;
+using terrain::StructureType;
+
+// A number a structure type declares (its key, default and range from the descriptor).
+real declared(const Fields& f, const StructureType& type, const std::string& key) {
+  return read_parameter(f, field_spec(type.fields, key).parameters.front());
+}
+
+void read_corridor(const Fields& t, terrain::CorridorSpec& corridor) {
+  Fields c(t.raw("corridor"), "terrain.corridor", {"travel_angle", "buffer", "polygon", "max_outflow"});
+  corridor.travel_angle_deg = c.number_or("travel_angle", 11.0, 0.0, 60.0, true);
+  corridor.buffer_m = c.number_or("buffer", 0.0, 0.0, 1e5);
+  if (c.has("polygon")) corridor.polygon = parse_polyline(c.raw("polygon"), c.at("polygon"), 3);
+  corridor.max_outflow = c.number_or("max_outflow", 0.01, 0.0, 1.0);
+}
+
+void read_terrain_section(const json& j, const std::filesystem::path& base_dir, terrain::TerrainSpec& spec) {
+  Fields t(j.at("terrain"), "terrain", {"dem", "crs", "resolution", "layers", "corridor"});
+  std::filesystem::path dem = t.string("dem");
+  if (dem.is_relative() && !base_dir.empty()) dem = base_dir / dem;
+  spec.dem_path = dem.string();
+  spec.dem.target_crs = t.string_or("crs", "");
+  spec.dem.resolution = t.number_or("resolution", 0.0, 0.0, 1e4);
+  spec.layers = static_cast<int>(t.integer("layers", 3, 2, 10));
+  if (t.has("corridor")) read_corridor(t, spec.corridor);
+}
+
+void read_release(const json& j, terrain::ReleaseSpec& release) {
+  if (!j.contains("release")) throw SceneError("release", "missing (required in a terrain scene: polygon, depth or volume, material)");
+  Fields r(j.at("release"), "release", {"polygon", "depth", "volume", "material"});
+  release.polygon = parse_polyline(r.raw("polygon"), r.at("polygon"), 3);
+  if (r.has("depth") == r.has("volume"))
+    throw SceneError("release", "give exactly one of depth (m, in (0, 1000]) or volume (m3, in (0, 1e9])");
+  release.depth = r.number_or("depth", 0.0, 0.0, 1000.0, true);
+  release.volume = r.number_or("volume", 0.0, 0.0, 1e9, true);
+}
+
+terrain::Polyline read_line(const Fields& f, const StructureType& type, const std::string& key) {
+  return parse_polyline(f.raw(key), f.at(key), field_spec(type.fields, key).min_points);
+}
+
+void read_check_dam(const Fields& f, const StructureType& type, StructureSpec& st) {
+  st.line = read_line(f, type, "axis");
+  st.crest_height = declared(f, type, "crest_height");
+  st.thickness = declared(f, type, "thickness");
+  if (!f.has("slit")) return;
+  const auto& members = field_spec(type.fields, "slit").parameters;
+  Fields sl(f.raw("slit"), f.at("slit"), {"width", "bottom"});
+  st.slit_width = read_parameter(sl, parameter_spec(members, "width"));
+  st.slit_bottom = read_parameter(sl, parameter_spec(members, "bottom"));
+  if (st.slit_bottom >= st.crest_height)
+    throw SceneError(sl.at("bottom"), "must be below crest_height (" + fmt(st.crest_height) + " m)");
+}
+
+void read_deposition_area(const Fields& f, const StructureType& type, StructureSpec& st) {
+  st.line = read_line(f, type, "polygon");
+  if (f.has("elevation")) st.elevation = declared(f, type, "elevation");
+  st.gradient = declared(f, type, "gradient");
+}
+
+std::vector<int> read_open_edges(const Fields& f, size_t vertices) {
+  const json& oe = f.raw("open_edges");
+  if (!oe.is_array()) throw SceneError(f.at("open_edges"), "must be an array of edge indices");
+  std::vector<int> edges;
+  for (size_t q = 0; q < oe.size(); ++q) {
+    const std::string ef = f.at("open_edges") + "[" + std::to_string(q) + "]";
+    if (!oe[q].is_number_integer() || oe[q].get<long>() < 0 || oe[q].get<long>() >= static_cast<long>(vertices))
+      throw SceneError(ef, "must be an edge index in [0, " + std::to_string(vertices - 1) +
+                               "] (edge k joins vertex k to vertex k+1)");
+    edges.push_back(oe[q].get<int>());
+  }
+  return edges;
+}
+
+void read_retention_basin(const Fields& f, const StructureType& type, StructureSpec& st) {
+  st.line = read_line(f, type, "polygon");
+  st.depth = declared(f, type, "depth");
+  st.wall_height = declared(f, type, "wall_height");
+  if (!(st.depth > 0) && !(st.wall_height > 0))
+    throw SceneError(f.path(), "a retention basin needs depth > 0 m or wall_height > 0 m (or both)");
+  if (st.wall_height > 0) {
+    const ParameterSpec& p = field_spec(type.fields, "wall_thickness").parameters.front();
+    st.wall_thickness = f.number(p.key, p.lo, p.hi, p.lo_open, p.hi_open);  // required with a wall
+  }
+  if (f.has("open_edges")) st.open_edges = read_open_edges(f, st.line.size());
+}
+
+// The scene side of each structure type: its fields into a StructureSpec, with the rules across fields.
+using StructureReader = void (*)(const Fields&, const StructureType&, StructureSpec&);
+StructureReader structure_reader(terrain::StructureKind kind) {
+  switch (kind) {
+    case terrain::StructureKind::check_dam: return read_check_dam;
+    case terrain::StructureKind::deposition_area: return read_deposition_area;
+    case terrain::StructureKind::retention_basin: return read_retention_basin;
+  }
+  throw std::logic_error("structure kind without a scene reader");
+}
+
+// Keys of an object describing one of `types` (each type's fields, and "type" and "name").
+template <class Types>
+std::set<std::string> keys_of(const Types& types) {
+  std::set<std::string> keys = {"type", "name"};
+  for (const auto* t : types)
+    for (const auto& f : t->fields) keys.insert(f.key);
+  return keys;
+}
+
+StructureSpec read_structure(const json& s, const std::string& path, std::set<std::string>& names) {
+  std::vector<std::string> type_names;
+  for (const auto* t : terrain::structure_types()) type_names.push_back(t->name);
+  const StructureType& type =
+      terrain::structure_type(Fields(s, path, keys_of(terrain::structure_types())).string("type", type_names));
+  Fields f(s, path, keys_of(std::vector<const StructureType*>{&type}));
+  StructureSpec st;
+  st.name = f.string("name");
+  if (!names.insert(st.name).second) throw SceneError(f.at("name"), "duplicate structure name '" + st.name + "'");
+  st.kind = type.kind;
+  structure_reader(type.kind)(f, type, st);
+  return st;
+}
+
+void read_structures(const json& j, std::vector<StructureSpec>& out) {
+  if (!j.contains("structures")) return;
+  const json& ss = j.at("structures");
+  if (!ss.is_array()) throw SceneError("structures", "must be an array of structures");
+  std::set<std::string> names;
+  for (size_t k = 0; k < ss.size(); ++k) out.push_back(read_structure(ss[k], item("structures", k), names));
+}
+
+void read_protected_zones(const json& j, std::vector<terrain::ProtectedZone>& out) {
+  if (!j.contains("protected_zones")) return;
+  const json& zs = j.at("protected_zones");
+  if (!zs.is_array()) throw SceneError("protected_zones", "must be an array of {name, polygon}");
+  for (size_t k = 0; k < zs.size(); ++k) {
+    Fields z(zs[k], item("protected_zones", k), {"name", "polygon"});
+    out.push_back({z.string("name"), parse_polyline(z.raw("polygon"), z.at("polygon"), 3)});
+  }
+}
+
+}  // namespace
+
+terrain::TerrainSpec parse_terrain_spec(const json& j, const std::filesystem::path& base_dir) {
+  terrain::TerrainSpec spec;
+  read_terrain_section(j, base_dir, spec);
+  read_release(j, spec.release);
+  read_structures(j, spec.structures);
+  read_protected_zones(j, spec.protected_zones);
+  return spec;
+}
+
+// Terrain: built first (it validates the DEM, release and structures), its release joins the fluid.
+template <int D>
+void read_terrain(Build<D>& b) {
+  for (const char* key : {"release", "structures", "protected_zones"})
+    if (b.top.has(key) && !b.top.has("terrain")) throw SceneError(key, "needs a terrain section");
+  if (!b.top.has("terrain")) return;
+  if (D != 3) throw SceneError("dimensions", "a terrain scene must have dimensions = 3");
+  const terrain::TerrainSpec spec = parse_terrain_spec(b.j, b.base_dir);
+  b.release_material = Fields(b.j.at("release"), "release", {"polygon", "depth", "volume", "material"}).string("material");
+  if (!b.material_index.count(b.release_material))
+    throw SceneError("release.material", "no material named '" + b.release_material + "'");
+  try {
+    b.tmodel = std::make_shared<terrain::TerrainModel>(terrain::build_terrain(spec, b.dp, b.scene.max_particles));
+  } catch (const terrain::TerrainError& e) {
+    const std::string what = e.what();
+    throw SceneError(e.field, what.substr(std::min(what.size(), e.field.size() + 2)));
+  }
+}
+
+template void read_terrain<2>(Build<2>&);
+template void read_terrain<3>(Build<3>&);
+
+}  // namespace runout::scene_reader
