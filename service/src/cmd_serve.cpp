@@ -99,42 +99,30 @@ int serve(service::ServeOptions opt, const std::string& token_file, bool verbose
   return 0;
 }
 
+// An option with its accepted range, its default shown in --help.
+template <class T, class B>
+void bounded(CLI::App* cmd, const char* name, T& value, const char* doc, B lo, B hi) {
+  cmd->add_option(name, value, doc)->check(CLI::Range(lo, hi))->capture_default_str();
+}
+
 // The limits the server keeps to (request sizes and times, connections, work budgets).
 void add_limits(CLI::App* cmd, service::ServeOptions& o) {
-  cmd->add_option("--max-body", o.max_body, "Largest request body in bytes")
-      ->check(CLI::Range(static_cast<size_t>(1024), static_cast<size_t>(1) << 30))
-      ->capture_default_str();
-  cmd->add_option("--particle-budget", o.particle_budget, "Most particles a job may have")
-      ->check(CLI::Range(static_cast<int64_t>(100), static_cast<int64_t>(200'000'000)))
-      ->capture_default_str();
-  cmd->add_option("--header-timeout", o.header_timeout,
-                  "Seconds for a whole request head, however slowly it arrives (408 after)")
-      ->check(CLI::Range(0.1, 3600.0))
-      ->capture_default_str();
-  cmd->add_option("--body-timeout", o.body_timeout, "Seconds for a whole request body (408 after)")
-      ->check(CLI::Range(0.1, 3600.0))
-      ->capture_default_str();
-  cmd->add_option("--idle-timeout", o.idle_timeout, "Seconds a kept-alive connection waits for a request")
-      ->check(CLI::Range(0.1, 3600.0))
-      ->capture_default_str();
-  cmd->add_option("--max-connections", o.max_connections, "Open connections in all (503 above)")
-      ->check(CLI::Range(4, 100000))
-      ->capture_default_str();
-  cmd->add_option("--max-connections-per-client", o.max_connections_per_client,
-                  "Open connections of one client address (429 above)")
-      ->check(CLI::Range(1, 100000))
-      ->capture_default_str();
-  cmd->add_option("--http-threads", o.http_threads, "Threads that run API requests (health has its own)")
-      ->check(CLI::Range(2, 256))
-      ->capture_default_str();
-  cmd->add_option("--budget-token-cpu-s", o.budget_token_cpu_s,
-                  "Most predicted CPU-seconds queued or running per token (0: no limit; 429 above)")
-      ->check(CLI::Range(0.0, 1e12))
-      ->capture_default_str();
-  cmd->add_option("--budget-total-cpu-s", o.budget_total_cpu_s,
-                  "Most predicted CPU-seconds queued or running in all (0: no limit; 429 above)")
-      ->check(CLI::Range(0.0, 1e12))
-      ->capture_default_str();
+  bounded(cmd, "--max-body", o.max_body, "Largest request body in bytes", static_cast<size_t>(1024),
+          static_cast<size_t>(1) << 30);
+  bounded(cmd, "--particle-budget", o.particle_budget, "Most particles a job may have", static_cast<int64_t>(100),
+          static_cast<int64_t>(200'000'000));
+  bounded(cmd, "--header-timeout", o.header_timeout,
+          "Seconds for a whole request head, however slowly it arrives (408 after)", 0.1, 3600.0);
+  bounded(cmd, "--body-timeout", o.body_timeout, "Seconds for a whole request body (408 after)", 0.1, 3600.0);
+  bounded(cmd, "--idle-timeout", o.idle_timeout, "Seconds a kept-alive connection waits for a request", 0.1, 3600.0);
+  bounded(cmd, "--max-connections", o.max_connections, "Open connections in all (503 above)", 4, 100000);
+  bounded(cmd, "--max-connections-per-client", o.max_connections_per_client,
+          "Open connections of one client address (429 above)", 1, 100000);
+  bounded(cmd, "--http-threads", o.http_threads, "Threads that run API requests (health has its own)", 2, 256);
+  bounded(cmd, "--budget-token-cpu-s", o.budget_token_cpu_s,
+          "Most predicted CPU-seconds queued or running per token (0: no limit; 429 above)", 0.0, 1e12);
+  bounded(cmd, "--budget-total-cpu-s", o.budget_total_cpu_s,
+          "Most predicted CPU-seconds queued or running in all (0: no limit; 429 above)", 0.0, 1e12);
 }
 
 }  // namespace
@@ -144,11 +132,9 @@ Action add_serve(CLI::App& app) {
   auto& o = a->opt;
   auto* cmd = app.add_subcommand("serve", "Run the HTTP service: a job queue and the run store over a JSON API");
   cmd->add_option("--host", o.host, "Address to bind (loopback by default)")->capture_default_str();
-  cmd->add_option("--port", o.port, "Port (0: any free port, printed on stdout)")
-      ->check(CLI::Range(0, 65535))
-      ->capture_default_str();
+  bounded(cmd, "--port", o.port, "Port (0: any free port, printed on stdout)", 0, 65535);
   cmd->add_option("--db", a->db, "Run store and job queue (SQLite)")->capture_default_str();
-  cmd->add_option("--workers", o.workers, "Jobs run at once (0: queue only)")->check(CLI::Range(0, 64))->capture_default_str();
+  bounded(cmd, "--workers", o.workers, "Jobs run at once (0: queue only)", 0, 64);
   cmd->add_option("--threads-per-job", o.threads_per_job, "OpenMP threads per job (0: cores / workers)")
       ->check(CLI::Range(0, 1024));
   cmd->add_option("--token-file", a->token_file, "File holding the bearer token that writes need, or several, one per line (else env RUNOUT_TOKEN)");
