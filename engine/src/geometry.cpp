@@ -1,5 +1,6 @@
 #include "runout/engine/geometry.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace runout {
@@ -177,5 +178,30 @@ std::vector<LeakRegion<D>> tank_leak_regions(const OrientedBox<D>& inner, real d
 RUNOUT_INSTANTIATE(2)
 RUNOUT_INSTANTIATE(3)
 #undef RUNOUT_INSTANTIATE
+
+// Compiled without fused multiply-adds: the engine is built for the machine's CPU, terrain and scenarios
+// (which measure their dam axes and outlines here) are not, and a grid cell exactly equidistant from two
+// segments, or exactly on an axis, must come out as it did when they measured it themselves.
+#pragma GCC push_options
+#pragma GCC optimize("fp-contract=off")
+NearestSegment nearest_segment(const std::vector<std::array<double, 2>>& line, double x, double y,
+                               const SegmentRules& rules) {
+  NearestSegment best;
+  for (size_t k = 0; k + 1 < line.size(); ++k) {
+    const double ax = line[k][0], ay = line[k][1];
+    const double ex = line[k + 1][0] - ax, ey = line[k + 1][1] - ay;
+    const double len2 = ex * ex + ey * ey;
+    if (len2 == 0 && rules.skip_zero_length) continue;
+    double t = len2 > 0 ? ((x - ax) * ex + (y - ay) * ey) / len2 : 0.0;
+    if (rules.ends == SegmentRules::Ends::skip && (t < 0 || t > 1)) continue;
+    t = std::clamp(t, 0.0, 1.0);
+    const double d = std::hypot(x - (ax + t * ex), y - (ay + t * ey));
+    if (!(d < best.distance)) continue;
+    const double cross = ex * (y - ay) - ey * (x - ax);
+    best = {static_cast<int>(k), t, d, cross > 0 ? 1 : cross < 0 ? -1 : rules.on_line_side};
+  }
+  return best;
+}
+#pragma GCC pop_options
 
 }  // namespace runout

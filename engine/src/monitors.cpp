@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include "runout/engine/geometry.hpp"
 #include "runout/engine/kernels.hpp"
 
 namespace runout {
@@ -101,24 +102,17 @@ class SectionGauge final : public Monitor<D> {
   real peak_ = 0, peak_time_ = 0, arrival_time_ = -1;
 
   // +1/-1 by the side of the segment nearest to (x, y) (distance to the segment, ends included), its line
-  // extended; in 2D by x against the section. Never 0 (a point exactly on the line counts as +1).
+  // extended; in 2D by x against the section. Never 0 (a point exactly on the line counts as +1). A repeated
+  // point's zero-length segment is left out, as this loop always did.
   int side_of_extended_line(real x, real y) const {
     if constexpr (D == 2) {
       (void)y;
       return x >= pts_[0][0] ? 1 : -1;
     } else {
-      real best = std::numeric_limits<real>::infinity();
-      int side = 1;
-      for (size_t k = 0; k + 1 < pts_.size(); ++k) {
-        const real ax = pts_[k][0], ay = pts_[k][1];
-        const real ex = pts_[k + 1][0] - ax, ey = pts_[k + 1][1] - ay;
-        const real len2 = ex * ex + ey * ey;
-        const real t = std::clamp(((x - ax) * ex + (y - ay) * ey) / len2, real(0), real(1));
-        const real dx = x - (ax + t * ex), dy = y - (ay + t * ey);
-        const real d2 = dx * dx + dy * dy;
-        if (d2 < best) best = d2, side = ex * (y - ay) - ey * (x - ax) >= 0 ? 1 : -1;
-      }
-      return side;
+      SegmentRules rules;
+      rules.on_line_side = 1;
+      rules.skip_zero_length = true;
+      return nearest_segment(pts_, x, y, rules).side < 0 ? -1 : 1;
     }
   }
 

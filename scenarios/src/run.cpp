@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "runout/engine/geometry.hpp"
 #include "runout/scenarios/cost_model.hpp"
 #include "runout/terrain/terrain.hpp"
 
@@ -254,23 +255,14 @@ double retained_volume(const terrain::TerrainModel& tm, const terrain::Structure
         break;
       case terrain::StructureKind::check_dam: {
         if (below_rim && z >= st.crest_elevation) break;
-        // Upstream of the axis: behind the segment nearest to the point, against the flow normal.
-        double best = 1e300;
-        bool upstream = false;
-        for (size_t s = 0; s + 1 < st.outline.size(); ++s) {
-          const double ax = st.outline[s][0], ay = st.outline[s][1];
-          const double bx = st.outline[s + 1][0] - ax, by = st.outline[s + 1][1] - ay;
-          const double len2 = bx * bx + by * by;
-          const double t = len2 > 0 ? ((x - ax) * bx + (y - ay) * by) / len2 : 0;
-          if (t < 0 || t > 1) continue;
-          const double px = ax + t * bx - x, py = ay + t * by - y;
-          const double d2 = px * px + py * py;
-          if (d2 < best) {
-            best = d2;
-            upstream = (x - ax) * st.flow_normal[0] + (y - ay) * st.flow_normal[1] < 0;
-          }
-        }
-        held = best < 1e300 && upstream;
+        // Upstream of the axis: behind the nearest segment of those whose extent the point is in, against the
+        // flow normal (the side by the flow, not by the segment's direction).
+        SegmentRules rules;
+        rules.ends = SegmentRules::Ends::skip;
+        const NearestSegment n = nearest_segment(st.outline, x, y, rules);
+        if (n.index < 0) break;
+        const auto& a = st.outline[n.index];
+        held = (x - a[0]) * st.flow_normal[0] + (y - a[1]) * st.flow_normal[1] < 0;
         break;
       }
     }

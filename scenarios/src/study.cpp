@@ -40,6 +40,19 @@ std::optional<StoredRun> find_completed_run(const RunStore& store, const std::st
   return out;
 }
 
+RunStore::RunRecord run_record(const Manifest& manifest, const std::string& scene, const std::string& fidelity,
+                               const RunSummary& summary, const fs::path& out_dir) {
+  RunStore::RunRecord r;
+  r.manifest_hash = manifest.hash;
+  r.manifest_json = manifest.json;
+  r.scene = scene;
+  r.fidelity = fidelity;
+  r.status = summary.status;
+  r.metrics_json = summary.metrics_json;
+  r.series_csv = read_series(out_dir);
+  return r;
+}
+
 RunStore::RunRecord execute_run(const std::string& resolved_json, const Manifest& manifest, const fs::path& base_dir,
                                 const StoreRunOptions& options, StoredRun& result) {
   const Scene scene = parse_scene(resolved_json, base_dir);
@@ -48,16 +61,10 @@ RunStore::RunRecord execute_run(const std::string& resolved_json, const Manifest
   result.status = s.status;
   result.error = s.error;
   result.wall_seconds = s.wall_seconds;
-  RunStore::RunRecord r;
-  r.manifest_hash = manifest.hash;
-  r.manifest_json = manifest.json;
+  RunStore::RunRecord r =
+      run_record(manifest, scene.name, options.fidelity.dp ? "custom" : options.fidelity.name, s, options.run.out_dir);
   r.sweep = options.sweep;
   r.variant = options.variant;
-  r.scene = scene.name;
-  r.fidelity = options.fidelity.dp ? "custom" : options.fidelity.name;
-  r.status = s.status;
-  r.metrics_json = s.metrics_json;
-  r.series_csv = read_series(options.run.out_dir);
   return r;
 }
 

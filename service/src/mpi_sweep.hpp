@@ -16,7 +16,7 @@
 // orte_enable_recovery=1). Without it mpirun kills every rank when one dies; the store keeps every run that
 // was finished and the same command resumes.
 //
-// mpi.h stays out of this header: main.cpp includes it whether or not the build has MPI.
+// mpi.h stays out of this header: cmd_sweep.cpp includes it whether or not the build has MPI.
 #include <atomic>
 #include <cstdlib>
 #include <memory>

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include "runout/engine/geometry.hpp"
 #include "runout/terrain/terrain.hpp"
 
 namespace runout::terrain {
@@ -28,20 +29,16 @@ bool inside_polygon(const Polyline& p, double x, double y) {
 }
 
 double distance_to_polyline(const Polyline& line, double x, double y, double* along) {
-  double best = std::numeric_limits<double>::infinity(), best_s = 0.0, s0 = 0.0;
-  for (size_t k = 0; k + 1 < line.size(); ++k) {
-    const double ax = line[k][0], ay = line[k][1];
-    const double ex = line[k + 1][0] - ax, ey = line[k + 1][1] - ay;
-    const double len2 = ex * ex + ey * ey, len = std::sqrt(len2);
-    const double t = len2 > 0 ? std::clamp(((x - ax) * ex + (y - ay) * ey) / len2, 0.0, 1.0) : 0.0;
-    const double d = std::hypot(x - (ax + t * ex), y - (ay + t * ey));
-    if (d < best) {
-      best = d;
-      best_s = s0 + t * len;
-    }
-    s0 += len;
-  }
+  const NearestSegment n = nearest_segment(line, x, y);
+  double best = n.distance, best_s = 0.0;
   if (line.size() == 1) best = std::hypot(x - line[0][0], y - line[0][1]);
+  if (along && n.index >= 0) {
+    for (int k = 0; k <= n.index; ++k) {  // the arc length summed in the order it always was
+      const double ex = line[k + 1][0] - line[k][0], ey = line[k + 1][1] - line[k][1];
+      const double len = std::sqrt(ex * ex + ey * ey);
+      best_s = k < n.index ? best_s + len : best_s + n.t * len;
+    }
+  }
   if (along) *along = best_s;
   return best;
 }

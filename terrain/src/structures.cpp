@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "build_steps.hpp"
+#include "runout/engine/geometry.hpp"
 
 namespace runout::terrain::detail {
 namespace {
@@ -141,19 +142,12 @@ void build_basin_walls(TerrainModel& m, const StructureSpec& s, const Footprint&
   m.structures[k].wall_height_built = s.wall_height;
 }
 
-// +1/-1 by the side of a dam's axis a map point is on (of the segment nearest to it).
+// +1/-1 by the side of a dam's axis a map point is on (of the segment nearest to it); a point exactly on the
+// axis counts as -1.
 double axis_side(const Polyline& line, double x, double y) {
-  double best = 1e300, sgn = 0;
-  for (size_t e = 0; e + 1 < line.size(); ++e) {
-    const Polyline seg{line[e], line[e + 1]};
-    const double d = distance_to_polyline(seg, x, y);
-    if (d < best) {
-      best = d;
-      const double ex = line[e + 1][0] - line[e][0], ey = line[e + 1][1] - line[e][1];
-      sgn = ex * (y - line[e][1]) - ey * (x - line[e][0]) > 0 ? 1.0 : -1.0;
-    }
-  }
-  return sgn;
+  SegmentRules rules;
+  rules.on_line_side = -1;
+  return nearest_segment(line, x, y, rules).side;
 }
 
 // A dam's upstream side: the side of its axis whose ground next to the dam is higher on average.

@@ -3,6 +3,8 @@
 // local axes, and a tilt `angle_deg` that rotates local x downwards about the horizontal axis normal to the
 // x-vertical plane (so a plane at angle 30 descends along +x). Lattice points sit at (k + 1/2) dp in local
 // coordinates, so fluid and walls built from the same faces stay dp apart.
+#include <array>
+#include <limits>
 #include <vector>
 
 #include "runout/engine/types.hpp"
@@ -58,5 +60,29 @@ std::vector<LeakRegion<D>> solid_box_leak_regions(const OrientedBox<D>& box, rea
 template <int D>
 std::vector<LeakRegion<D>> tank_leak_regions(const OrientedBox<D>& inner, real dp, int layers,
                                              const FaceMask<D>& open, int tag);
+
+// The segment of a plane polyline nearest to a point (section lines, dam axes, structure outlines: map or
+// scene x, y). One loop for every caller; where callers genuinely want different answers, the rule is an
+// option. Equally near segments: the first (lowest index) wins, for every caller.
+struct SegmentRules {
+  // A point that projects beyond a segment's ends: `clamp` measures to the nearest end, so every segment
+  // competes and a point beyond the line's ends is nearest to an end segment; `skip` leaves the segment out,
+  // so only segments whose extent the point is in compete (there may be none).
+  enum class Ends { clamp, skip } ends = Ends::clamp;
+  // The side of a point exactly on the nearest segment's line (its cross product 0): +1 or -1.
+  int on_line_side = 1;
+  // A zero-length segment (two equal consecutive points): a point to measure to, or left out.
+  bool skip_zero_length = false;
+};
+
+struct NearestSegment {
+  int index = -1;     // segment k joins points k and k + 1; -1: no segment competed
+  double t = 0;       // parameter along it, 0 at point k, 1 at point k + 1 (in [0, 1] under both rules)
+  double distance = std::numeric_limits<double>::infinity();  // to the point at t
+  int side = 0;       // +1 left of the segment's direction (counter-clockwise), -1 right; 0 if index is -1
+};
+
+NearestSegment nearest_segment(const std::vector<std::array<double, 2>>& line, double x, double y,
+                               const SegmentRules& rules = {});
 
 }  // namespace runout

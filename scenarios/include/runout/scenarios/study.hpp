@@ -20,6 +20,11 @@ namespace runout {
 // Every series/*.csv under a run directory, keyed by file stem ("run", "section_S1").
 std::map<std::string, std::string> read_series(const std::filesystem::path& run_dir);
 
+// The record of a finished run (its metrics and series from out_dir), as the store keeps it; sweep and variant
+// empty (a single run).
+RunStore::RunRecord run_record(const Manifest& manifest, const std::string& scene, const std::string& fidelity,
+                               const RunSummary& summary, const std::filesystem::path& out_dir);
+
 // Runs one resolved scene (JSON text) to `out_dir` and stores it; returns the stored run's id and status.
 // A completed run with the same manifest already in the store is returned as it is (reused = true).
 struct StoredRun {

@@ -1,38 +1,39 @@
-// `runout tradeoff` and `runout calibrate` (tradeoff_cli.hpp, docs/tradeoff.md).
-#include "tradeoff_cli.hpp"
-
-#include <cmath>
+// `runout tradeoff`: one layout at a ladder of resolutions, the cost and the deviation of every metric from
+// the finest (docs/tradeoff.md).
+#include <cctype>
 #include <cstdio>
-#include <fstream>
-#include <sstream>
+#include <memory>
 
 #include <nlohmann/json.hpp>
-#include <omp.h>
 #include <spdlog/spdlog.h>
 
-#include "runout/scenarios/cost_model.hpp"
+#include "commands.hpp"
 #include "runout/scenarios/scene.hpp"
 #include "runout/scenarios/store.hpp"
 #include "runout/scenarios/sweep.hpp"
 #include "runout/scenarios/tradeoff.hpp"
 
-namespace runout::service {
+namespace runout::cli {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 namespace {
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  if (!in) throw SceneError("(file)", "cannot read " + p.string());
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+struct TradeoffArgs {
+  std::string file;                  // a scene, or a sweep (then `variant` picks the layout)
+  std::string variant;               // sweep variant (default: the first)
+  std::vector<std::string> levels;   // default: draft, standard, fine
+  std::vector<std::string> options;  // PATH=VALUE numerics choices run at option_level
+  std::string option_level;
+  int threads = 0;
+  std::string out_dir;               // default runs/tradeoff/<name>
+  std::string db = "runout.db";
+  bool predict_only = false;
+};
 
 // The scene of a tradeoff: a sweep's base with one variant's structures, or a scene with all of its own.
-TradeoffSpec tradeoff_spec(const TradeoffCommand& c) {
+TradeoffSpec tradeoff_spec(const TradeoffArgs& c) {
   TradeoffSpec spec;
   const std::string text = read_text(c.file);
   const json j = json::parse(text, nullptr, false);
@@ -76,9 +77,7 @@ std::string safe_name(std::string s) {
   return s;
 }
 
-}  // namespace
-
-int run_tradeoff_command(const TradeoffCommand& c, const std::atomic<bool>* stop) {
+int tradeoff(const TradeoffArgs& c, const std::atomic<bool>* stop) {
   TradeoffSpec spec;
   try {
     spec = tradeoff_spec(c);
@@ -125,64 +124,29 @@ int run_tradeoff_command(const TradeoffCommand& c, const std::atomic<bool>* stop
   return 0;
 }
 
-int run_calibrate_command(const CalibrateCommand& c) {
-  std::vector<CostObservation> runs;
-  std::vector<std::string> names;
-  try {
-    for (const auto& db : c.dbs) {
-      RunStore store(db);
-      for (const auto& r : store.list_runs()) {
-        if (r.status != "completed" || r.sweep.rfind(c.sweep_prefix, 0) != 0) continue;
-        CostObservation o;
-        if (!cost_observation_from_metrics(store.metrics_json(r.id), o)) continue;
-        o.label = (r.sweep.empty() ? r.scene : r.sweep + "/" + r.variant) + " #" + std::to_string(r.id);
-        runs.push_back(o);
-      }
-    }
-  } catch (const std::exception& e) {
-    spdlog::error("calibrate: {}", e.what());
-    return 2;
-  }
-  if (runs.size() < 2) {
-    spdlog::error("calibrate: {} completed run(s) with cost features in {} (need at least 2; runs stored before the "
-                  "cost model have none)",
-                  runs.size(), c.dbs.empty() ? std::string() : c.dbs.front());
-    return 2;
-  }
-  const CostModel shipped = CostModel::calibrated();
-  const CostModel fitted = fit_cost_model(runs, shipped);
-  // Leave-one-out: each run predicted by a model fitted without it, the honest figure for a run not seen.
-  std::printf("%-44s %2s %8s %8s %8s %9s %9s %8s %8s %8s\n", "run", "D", "fluid", "boundary", "steps", "wall [s]",
-              "shipped", "err %", "fitted", "LOO %");
-  double worst_shipped = 0, worst_loo = 0;
-  for (size_t i = 0; i < runs.size(); ++i) {
-    std::vector<CostObservation> others = runs;
-    others.erase(others.begin() + i);
-    const CostModel loo = fit_cost_model(others, shipped);
-    const auto& r = runs[i];
-    const double ps = shipped.predict(r.features, r.threads).seconds;
-    const double pf = fitted.predict(r.features, r.threads).seconds;
-    const double pl = loo.predict(r.features, r.threads).seconds;
-    const double es = 100 * (ps - r.wall_seconds) / r.wall_seconds, el = 100 * (pl - r.wall_seconds) / r.wall_seconds;
-    worst_shipped = std::max(worst_shipped, std::abs(es));
-    worst_loo = std::max(worst_loo, std::abs(el));
-    std::printf("%-44s %2d %8.0f %8.0f %8.0f %9.1f %9.1f %+8.1f %8.1f %+8.1f\n", r.label.substr(0, 44).c_str(),
-                r.features.dimensions, r.features.fluid, r.features.boundary, r.steps, r.wall_seconds, ps, es, pf, el);
-  }
-  auto coef = [](const CostCoefficients& k) {
-    return json{{"step_ratio", k.step_ratio}, {"a_fluid_s", k.a_fluid}, {"b_boundary_s", k.b_boundary}, {"c_step_s", k.c_step}};
+}  // namespace
+
+Action add_tradeoff(CLI::App& app) {
+  auto c = std::make_shared<TradeoffArgs>();
+  auto* cmd = app.add_subcommand(
+      "tradeoff", "Run a scene at a ladder of resolutions: cost and deviation of every metric from the finest");
+  cmd->add_option("file", c->file, "Scene or sweep file (JSON)")->required();
+  cmd->add_option("--variant", c->variant, "The sweep's layout to run (default: its first)");
+  cmd->add_option("--levels", c->levels, "draft, standard, fine or dp values [m] (default: all three presets)")
+      ->delimiter(',');
+  cmd->add_option("--option", c->options,
+                  "A numerics choice run at one rung, PATH=VALUE (numerics.kernel=cubic); repeatable");
+  cmd->add_option("--option-level", c->option_level, "The rung the options run at (default: the coarsest)");
+  cmd->add_option("--threads,-j", c->threads, "OpenMP threads (default: all cores)")->check(CLI::Range(0, 1024));
+  cmd->add_option("--out,-o", c->out_dir, "levels.csv, metrics.csv, tradeoff.svg and each level's outputs "
+                                          "(default runs/tradeoff/<name>)");
+  cmd->add_option("--db", c->db, "Run store (SQLite); stored levels are reused")->capture_default_str();
+  cmd->add_flag("--predict-only", c->predict_only,
+                "Build each level and print its particles and the cost model's steps and time; run nothing");
+  return [c](const char*) {
+    stop_on_signals();
+    return tradeoff(*c, &g_stop);
   };
-  const json out = {{"runs", runs.size()},
-                    {"two_d", coef(fitted.two_d)},
-                    {"three_d", coef(fitted.three_d)},
-                    {"parallel_efficiency", fitted.parallel_efficiency},
-                    {"parallel_half_fluid", fitted.parallel_half_fluid},
-                    {"worst_error_percent_shipped", worst_shipped},
-                    {"worst_error_percent_leave_one_out", worst_loo}};
-  std::printf("\nfitted on %zu runs: %s\n", runs.size(), out.dump().c_str());
-  std::printf("worst |error|: shipped model %.1f %%, leave-one-out refit %.1f %%\n", worst_shipped, worst_loo);
-  if (!c.json_out.empty()) std::ofstream(c.json_out) << out.dump(2) << "\n";
-  return 0;
 }
 
-}  // namespace runout::service
+}  // namespace runout::cli
