@@ -32,6 +32,7 @@ struct JobSpec {
   // From the built scene, for POST /estimate (the cost model, docs/tradeoff.md); not stored with the job.
   int64_t fluid_particles = 0, boundary_particles = 0;
   int dimensions = 0;
+  double resolved_dp = 0;  // the particle spacing the scene was built at [m]
   CostFeatures cost;
   // The work budget (docs/service.md, "Limits"): the cost model's CPU-seconds (run time x threads) and who
   // submitted it (a label of the token, never the token); both stored with the job.

@@ -197,6 +197,7 @@ void record_built_scene(const Scene& s, JobSpec& spec) {
   spec.cost = cost_features(s);
   spec.particles = spec.fluid_particles + spec.boundary_particles;
   spec.dimensions = s.dimensions;
+  spec.resolved_dp = s.dp;
 }
 
 // The files a scene names must be inside the scene directory after every symbolic link is followed (the

@@ -17,12 +17,11 @@ void Server::Impl::routes_estimate() {
     const int threads = std::max(1, threads_per_job);
     const CostPrediction p = model.predict(spec.cost, threads);
     const CostCoefficients& k = spec.cost.dimensions == 2 ? model.two_d : model.three_d;
-    const json resolved = json::parse(spec.scene_json);
     send_json(res, 200,
               {{"scene_name", spec.scene_name},
                {"variant", spec.variant},
                {"fidelity", spec.fidelity},
-               {"dp", resolved.contains("dp") ? resolved["dp"] : json(nullptr)},
+               {"dp", spec.resolved_dp},
                {"dimensions", spec.dimensions},
                {"particles",
                 {{"fluid", spec.fluid_particles}, {"boundary", spec.boundary_particles}, {"total", spec.particles}}},
