@@ -148,10 +148,9 @@ class SectionGauge final : public Monitor<D> {
 template <int D>
 class StructureLoad final : public Monitor<D> {
  public:
-  StructureLoad(const MonitorSpec& spec, const Solver<D>& s) : Monitor<D>(spec.name) {
+  StructureLoad(const MonitorSpec& spec, const Solver<D>& s) : Monitor<D>(spec.name), tag_(spec.tag) {
     const auto& b = s.boundary();
-    for (size_t j = 0; j < b.size(); ++j)
-      if (b.tag[j] == spec.tag) members_.push_back(j);
+    collect_members(s);
     if (spec.tag == 0 || members_.empty())
       throw std::invalid_argument("monitor '" + spec.name + "': no boundary particle carries tag " +
                                   std::to_string(spec.tag));
@@ -169,6 +168,7 @@ class StructureLoad final : public Monitor<D> {
   }
 
   std::vector<real> sample(const Solver<D>& s) override {
+    if (s.boundary_generation() != generation_) collect_members(s);
     const auto& cfg = s.config();
     const auto& f = s.fluid();
     const auto& b = s.boundary();
@@ -251,6 +251,18 @@ class StructureLoad final : public Monitor<D> {
   }
 
  private:
+  // The structure's particles: indices into the boundary, found again whenever the solver rebuilds it (wall
+  // tiles laid or dropped); the structure's own particles are always alive.
+  void collect_members(const Solver<D>& s) {
+    const auto& b = s.boundary();
+    members_.clear();
+    for (size_t j = 0; j < b.size(); ++j)
+      if (b.tag[j] == tag_) members_.push_back(j);
+    generation_ = s.boundary_generation();
+  }
+
+  uint32_t tag_;
+  uint64_t generation_ = 0;
   std::vector<size_t> members_;
   Vec<D> normal_ = Vec<D>::Zero(), lo_, hi_;
   bool has_normal_ = false;

@@ -39,7 +39,7 @@ CostFeatures cost_features(const Scene& scene) {
         const SolverConfig& c = setup.config;
         const double h = c.smoothing_length, dp = c.dp;
         f.fluid = static_cast<double>(setup.fluid.size());
-        f.boundary = static_cast<double>(setup.boundary.size());
+        f.boundary = static_cast<double>(setup.boundary.size() + (setup.wall_source ? setup.wall_source->total() : 0));
         f.neighbours = std::pow(h / dp, D);
         // Inlets: their buffers work from the start; what they deliver joins the flow linearly on average.
         double buffer = 0, inflow = 0;

@@ -489,7 +489,7 @@ class Progress {
 // series_interval. Throws SimulationError when the run fails.
 template <int D>
 std::string step_to_end(const Scene& scene, const RunOptions& opt, Solver<D>& solver, RunSeries<D>& series,
-                        TerrainWatch<D>& watch, Progress& progress, long& particle_steps) {
+                        TerrainWatch<D>& watch, Progress& progress, long& particle_steps, real& ended_at_rest) {
   if (watch.active()) {
     watch.set_released_mass(static_cast<double>(solver.mass_balance().total_initial()));
     watch.check(solver, 0.0);
@@ -500,10 +500,20 @@ std::string step_to_end(const Scene& scene, const RunOptions& opt, Solver<D>& so
   series.sample(solver.last_step());
   series.sample_monitors();
   real next_sample = scene.output.series_interval;
+  real rest_since = -1;  // simulated time since which every flow particle is slower than output.rest_speed
   while (solver.time() < scene.duration) {
     if (opt.stop && opt.stop->load()) return "stopped";
     particle_steps += static_cast<long>(solver.fluid().size());
     const StepStats& st = solver.step();
+    if (scene.output.rest_speed > 0) {
+      rest_since = st.max_speed < scene.output.rest_speed ? (rest_since < 0 ? solver.time() : rest_since) : -1;
+      if (rest_since >= 0 && solver.time() - rest_since >= scene.output.rest_time) {
+        ended_at_rest = solver.time();
+        series.sample_monitors();
+        series.sample(st);
+        break;
+      }
+    }
     // A particle moves well under dp in 10 steps (CFL), so it cannot cross a wall between two checks.
     if (watch.active() && solver.steps() % 10 == 0) watch.check(solver, solver.time());
     series.after_step();
@@ -594,6 +604,16 @@ json cost_feature_metrics(const Scene& scene) {
 }
 
 // Particle counts a run reports: at the start, and the leaked ones when it failed on a leak.
+// c0 against the fastest flow: weak compressibility needs Mach <= 0.1, and the acoustic step limit scales as 1/c0,
+// so a run whose Mach stays far under 0.1 could take fewer steps with the c0 that keeps it at 0.1.
+template <int D>
+json speed_of_sound_metrics(const Solver<D>& solver) {
+  const real c0 = solver.config().speed_of_sound, top = solver.max_mach() * c0;
+  json s = {{"c0_m_s", c0}, {"max_flow_speed_m_s", top}, {"c0_for_mach_0_1_m_s", 10.0 * top}};
+  s["acoustic_steps_factor"] = top > 0 ? 10.0 * top / c0 : 0.0;  // steps with that c0, where acoustics set dt
+  return s;
+}
+
 struct ParticleCounts {
   size_t fluid_initial = 0, boundary = 0, leaked = 0;
 };
@@ -608,8 +628,11 @@ json run_metrics(const Scene& scene, const Solver<D>& solver, const RunSummary& 
   m["status"] = sum.status;
   if (!sum.error.empty()) m["error"] = sum.error;
   m["dimensions"] = D;
+  // boundary: every wall particle the scene describes; boundary_peak: the most alive at once (a terrain's
+  // bed is laid near the flow only), wall_rebuilds: how often the tiles alive changed.
   m["particles"] = {{"fluid_initial", counts.fluid_initial}, {"fluid_final", solver.fluid().size()},
-                    {"boundary", counts.boundary}};
+                    {"boundary", counts.boundary}, {"boundary_peak", solver.boundary_peak()},
+                    {"wall_rebuilds", solver.boundary_generation()}};
   m["steps"] = sum.steps;
   m["simulated_time_s"] = sum.simulated_time;
   m["wall_time_s"] = sum.wall_seconds;
@@ -621,6 +644,11 @@ json run_metrics(const Scene& scene, const Solver<D>& solver, const RunSummary& 
   if (solver.max_mach() > 0.1)
     m["warnings"].push_back("max Mach number " + std::to_string(solver.max_mach()) +
                             " exceeds 0.1: raise numerics.speed_of_sound");
+  m["speed_of_sound"] = speed_of_sound_metrics(solver);
+  if (scene.output.rest_speed > 0)
+    m["rest"] = {{"speed_m_s", scene.output.rest_speed},
+                 {"time_s", scene.output.rest_time},
+                 {"ended_at_s", sum.ended_at_rest >= 0 ? json(sum.ended_at_rest) : json(nullptr)}};
   m["mass"] = mass_metrics(solver.mass_balance());
   m["leaks"] = counts.leaked;
   m["energy"] = {{"kinetic_final_j", e.kinetic},
@@ -659,14 +687,14 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
   if (opt.snapshots) fs::create_directories(opt.out_dir / "snapshots");
 
   Solver<D> solver(setup);
-  ParticleCounts counts{solver.fluid().size(), solver.boundary().size()};
+  ParticleCounts counts{solver.fluid().size(), static_cast<size_t>(solver.boundary_described())};
   Progress progress(opt);
   TerrainWatch<D> watch(scene.terrain.get(), scene.output.inundation_threshold);
   RunSeries<D> series(scene, solver);
   RunSummary sum;
   long particle_steps = 0;
   try {
-    sum.status = step_to_end(scene, opt, solver, series, watch, progress, particle_steps);
+    sum.status = step_to_end(scene, opt, solver, series, watch, progress, particle_steps, sum.ended_at_rest);
   } catch (const SimulationError& e) {
     sum.status = "failed";
     sum.error = failure_message(e, solver);

@@ -63,8 +63,8 @@ void build_walls(TerrainModel& m, const TerrainSpec& spec, const std::vector<Foo
 void storage_capacities(TerrainModel& m, const TerrainSpec& spec, const std::vector<Footprint>& feet,
                         const std::vector<int>& owner);
 
-// m.boundary: `layers` under each column and more on steep ground, wall particles on top; throws when the
-// count with the release would pass max_particles.
+// m.bed_layers: `layers` under each column and more on steep ground; m.boundary: the wall particles on top.
+// Throws when the walls and the release would pass max_particles.
 void lay_boundary_particles(TerrainModel& m, int layers, size_t release_columns, double release_depth,
                             long max_particles);
 // m.fluid: the release columns filled to its depth (or volume); throws if one is in a wall.

@@ -43,30 +43,30 @@ void lay_boundary_particles(TerrainModel& m, int layers, size_t release_columns,
   const Grid& bed = m.bed;
   const double dp = m.dp;
   const std::vector<int> depth_count = column_depths(bed, layers, dp);
-  size_t estimate = 0;
-  for (size_t c = 0; c < bed.values.size(); ++c) {
-    if (std::isnan(bed.values[c])) continue;
-    estimate += depth_count[c] + std::max(0, wall_count(m, c));
+  m.bed_layers.assign(depth_count.size(), 0);
+  for (size_t c = 0; c < depth_count.size(); ++c) {
+    if (depth_count[c] > 65535)
+      throw TerrainError("dp", "a column needs " + std::to_string(depth_count[c]) +
+                                   " bed particles (a cliff of more than 65 000 dp): raise dp");
+    if (!std::isnan(bed.values[c])) m.bed_layers[c] = static_cast<uint16_t>(depth_count[c]);
   }
+  // The bed's particles are laid near the flow as the run goes (bed_wall_source); the walls always exist.
+  size_t estimate = 0;
+  for (size_t c = 0; c < bed.values.size(); ++c)
+    if (!std::isnan(bed.values[c])) estimate += std::max(0, wall_count(m, c));
   const double layers_est = std::ceil(release_depth / dp);
   estimate += static_cast<size_t>(release_columns * std::max(1.0, layers_est));
   if (estimate > static_cast<size_t>(max_particles))
     throw TerrainError("dp", "dp = " + num(dp) + " m gives about " + std::to_string(estimate) +
-                                 " particles, over limits.max_particles = " + std::to_string(max_particles));
-  m.boundary.reserve(estimate);
-  m.boundary_tag.reserve(estimate);
+                                 " flow and wall particles, over limits.max_particles = " + std::to_string(max_particles));
   for (int j = 0; j < bed.ny; ++j)
     for (int i = 0; i < bed.nx; ++i) {
       const size_t c = static_cast<size_t>(j) * bed.nx + i;
       const double b = bed.values[c];
       if (std::isnan(b)) continue;
-      const double x = bed.cx(i) - m.origin_x, y = bed.cy(j) - m.origin_y;
-      for (int q = 0; q < depth_count[c]; ++q) {
-        m.boundary.push_back(Vec<3>(x, y, b - (q + 0.5) * dp));
-        m.boundary_tag.push_back(1);
-      }
       const int n = wall_count(m, c);
       if (n == 0) continue;
+      const double x = bed.cx(i) - m.origin_x, y = bed.cy(j) - m.origin_y;
       const uint32_t tag = m.structures[m.wall_owner[c]].tag;
       for (int q = 0; q < n; ++q) {
         m.boundary.push_back(Vec<3>(x, y, b + (q + 0.5) * dp));

@@ -57,6 +57,15 @@ TerrainSpec base_spec(const Valley& v, const std::string& dem) {
   return spec;
 }
 
+// Every wall particle of a model: the structures' and all of the bed source's tiles.
+std::vector<Vec<3>> all_wall_particles(const TerrainModel& m) {
+  std::vector<Vec<3>> pos = m.boundary;
+  std::vector<uint32_t> tags;
+  const auto src = bed_wall_source(std::make_shared<const TerrainModel>(m));
+  for (int64_t t = 0; t < src->tiles().count(); ++t) src->lay(t, pos, tags);
+  return pos;
+}
+
 // Midpoint-rule integral over a rectangle of the map plane at a fine step (independent of dp).
 template <class F>
 double integrate(double x0, double x1, double y0, double y1, F f, double step = 0.02) {
@@ -87,8 +96,9 @@ TEST(TerrainBuild, ReleaseSitsOnTheBedWithItsVolumeAndNoParticleIsMisplaced) {
   // The ground under every boundary column is the valley surface (bilinear on a piecewise-linear surface
   // is exact away from the thalweg kink, within s*cell/2 near it).
   size_t top_count = 0;
-  for (size_t q = 0; q < m.boundary.size(); ++q) {
-    const auto& p = m.boundary[q];
+  const std::vector<Vec<3>> walls = all_wall_particles(m);
+  for (size_t q = 0; q < walls.size(); ++q) {
+    const auto& p = walls[q];
     const double x = p[0] + m.origin_x - v.E0, y = p[1] + m.origin_y - v.N0;
     const double b = m.bed_at(p[0], p[1]);
     if (std::abs(p[2] - (b - 0.5 * dp)) < 1e-6) {
@@ -115,7 +125,7 @@ TEST(TerrainBuild, SteepGroundGetsABoundarySheetWithoutHoles) {
   TerrainSpec spec = base_spec(v, (tmp.path / "steep.tif").string());
   TerrainModel m = build_terrain(spec, dp);
   std::map<std::pair<long, long>, std::pair<double, double>> col;  // (i, j) -> (lowest, highest particle)
-  for (const auto& p : m.boundary) {
+  for (const auto& p : all_wall_particles(m)) {
     auto key = std::make_pair(std::lround(p[0] / dp - 0.5), std::lround(p[1] / dp - 0.5));
     auto it = col.find(key);
     if (it == col.end()) col[key] = {p[2], p[2]};
@@ -143,7 +153,7 @@ TEST(TerrainBuild, CorridorRunsDownTheValleyAndOpensTheDemEdgeItReaches) {
   EXPECT_LT(a.modelled_fraction, 0.9);
   EXPECT_GT(a.modelled_fraction, 0.05);
   double xmin = 1e300, xmax = -1e300;
-  for (const auto& p : a.boundary) xmin = std::min(xmin, p[0] + a.origin_x - v.E0), xmax = std::max(xmax, p[0] + a.origin_x - v.E0);
+  for (const auto& p : all_wall_particles(a)) xmin = std::min(xmin, p[0] + a.origin_x - v.E0), xmax = std::max(xmax, p[0] + a.origin_x - v.E0);
   // Upstream the energy line from the release's highest edge (3.5 m over the thalweg at y = 25) meets the
   // thalweg, rising 0.2/m against a line falling tan 8 deg = 0.14/m, within 3.5 / 0.34 = 10.3 m; the buffer
   // (5 m) and a cell come on top.
@@ -184,7 +194,7 @@ TEST(TerrainBuild, CorridorIgnoresTheRestOfALargerDem) {
   TerrainModel a = build_terrain(sa, 0.5);
   TerrainModel b = build_terrain(sb, 0.5);
   EXPECT_NEAR(b.modelled_fraction * 16.0, a.modelled_fraction, 1e-9);
-  EXPECT_EQ(a.boundary.size(), b.boundary.size());
+  EXPECT_EQ(all_wall_particles(a).size(), all_wall_particles(b).size());
   EXPECT_EQ(a.fluid.size(), b.fluid.size());
   EXPECT_DOUBLE_EQ(a.corridor_area, b.corridor_area);
   EXPECT_DOUBLE_EQ(a.origin_x, b.origin_x);
@@ -202,7 +212,7 @@ TEST(TerrainBuild, TravelAngleStopsTheCorridorWhereTheEnergyLineMeetsTheGround) 
   spec.corridor.buffer_m = 2.0;
   TerrainModel m = build_terrain(spec, 0.5);
   double xmax = -1e300;
-  for (const auto& p : m.boundary) xmax = std::max(xmax, p[0] + m.origin_x - v.E0);
+  for (const auto& p : all_wall_particles(m)) xmax = std::max(xmax, p[0] + m.origin_x - v.E0);
   // Head at the release's downstream edge x = 50: z(50) + 1; ground falls 0.1/m, the line 0.194/m, so they
   // meet 1 / (0.194 - 0.1) = 10.6 m further, plus the buffer and up to a DEM cell of rounding.
   const double reach = 50.0 + 1.0 / (std::tan(11.0 * M_PI / 180.0) - 0.1);

@@ -99,6 +99,19 @@ struct Solver<D>::Impl {
   std::vector<real> rho0, p_min, wall_friction;
   PassMaxima maxima;
 
+  // Wall tiles (wall_tiles.cpp). Per boundary particle: its tile (-1: a fixed particle, always alive) and its
+  // rank in the cell sort's ties (fixed: its place in the scene; a tile's: fixed count + its source index), so
+  // a cell's particles keep one order whichever tiles are alive. Per tile: alive or not, and the stamp of the
+  // last rebuild that wanted it.
+  std::vector<int64_t> boundary_tile;
+  std::vector<uint64_t> boundary_rank;
+  size_t boundary_fixed = 0;
+  WallTileGrid tiles;
+  std::vector<char> tile_live;
+  std::vector<uint32_t> tile_mark;
+  uint32_t mark_stamp = 0;
+  std::vector<int64_t> live_tiles;  // ascending
+
   std::vector<std::pair<uint64_t, uint32_t>> sort_buf;
   std::vector<real> scratch_real;
   std::vector<uint32_t> scratch_u32;

@@ -15,6 +15,7 @@ namespace runout {
 template <int D>
 const StepStats& Solver<D>::step() {
   auto& I = *impl_;
+  if (wall_source_) refresh_wall_tiles(false);
   sort_and_build_cells();
   if (!inlets_.empty()) impose_inlet_state();
   evaluate(true);

@@ -51,11 +51,15 @@ Solver<D>::Solver(SceneSetup<D> setup)
       fluid_(std::move(setup.fluid)),
       boundary_(std::move(setup.boundary)),
       leak_regions_(std::move(setup.leak_regions)),
-      inlets_(std::move(setup.inlets)) {
+      inlets_(std::move(setup.inlets)),
+      wall_source_(std::move(setup.wall_source)),
+      max_particles_(setup.max_particles) {
   auto& I = *impl_;
   for (const auto& m : materials_) rheologies_.push_back(make_rheology(m));
   for (uint32_t id : fluid_.id) next_id_ = std::max(next_id_, id + 1);
   create_inlet_buffers();
+  for (int d = 0; d < D && wall_source_; ++d)
+    if (config_.periodic[d]) throw std::invalid_argument("domain.periodic: a scene with a wall source cannot be periodic");
 
   const real h = config_.smoothing_length;
   const real support = 2.0 * h;
@@ -92,6 +96,7 @@ Solver<D>::Solver(SceneSetup<D> setup)
     real lo = 1e300;
     for (real x : fluid_.pos[d]) lo = std::min(lo, x);
     for (real x : boundary_.pos[d]) lo = std::min(lo, x);
+    if (wall_source_ && wall_source_->total() > 0) lo = std::min(lo, wall_source_->lowest()[d]);
     I.origin[d] = (lo < 1e299 ? lo : 0.0) - support;
   }
   {
@@ -109,29 +114,23 @@ Solver<D>::Solver(SceneSetup<D> setup)
     }
   }
 
-  // Boundary particles never move: sort them by cell once.
-  {
-    const size_t nb = boundary_.size();
-    std::vector<std::pair<uint64_t, uint32_t>> order(nb);
-    for (size_t i = 0; i < nb; ++i) order[i] = {Impl::pack(I.coords(boundary_.position(i))), uint32_t(i)};
-    std::sort(order.begin(), order.end());
-    ParticleArrays<D> sorted;
-    for (auto& [key, i] : order) {
-      sorted.add(boundary_.position(i), boundary_.rho[i], boundary_.mass[i], boundary_.material[i],
-                 boundary_.tag[i]);
-      sorted.id.back() = boundary_.id[i];
-      if (I.bcell_key.empty() || I.bcell_key.back() != key) {
-        I.bcell_key.push_back(key);
-        I.bcell_begin.push_back(static_cast<uint32_t>(sorted.size() - 1));
-      }
-    }
-    I.bcell_begin.push_back(static_cast<uint32_t>(nb));
-    boundary_ = std::move(sorted);
-    I.bcell_stamp.assign(I.bcell_key.size(), 0);
-  }
-  boundary_drho_.assign(boundary_.size(), 0.0);
-  boundary_pressure_.assign(boundary_.size(), 0.0);
+  // Boundary particles never move: the fixed ones are sorted by cell once, with the wall source's tiles near
+  // the flow when there is one (wall_tiles.cpp).
+  I.boundary_fixed = boundary_.size();
+  I.boundary_tile.assign(boundary_.size(), -1);
+  I.boundary_rank.resize(boundary_.size());
+  std::iota(I.boundary_rank.begin(), I.boundary_rank.end(), uint64_t{0});
   boundary_rho_saved_ = boundary_.rho;
+  boundary_pressure_.assign(boundary_.size(), 0.0);
+  if (wall_source_) {
+    I.tiles = wall_source_->tiles();
+    I.tile_live.assign(static_cast<size_t>(I.tiles.count()), 0);
+    I.tile_mark.assign(static_cast<size_t>(I.tiles.count()), 0u);
+    refresh_wall_tiles(true);
+  } else {
+    sort_boundary();
+    boundary_peak_ = boundary_.size();
+  }
 
   mass_.initial.assign(materials_.size(), 0.0L);
   mass_.outflow.assign(materials_.size(), 0.0L);

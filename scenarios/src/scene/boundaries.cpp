@@ -103,7 +103,7 @@ void read_boundary(Build<D>& b, const json& j, size_t k) {
   }
 }
 
-// Tag 1 is the ground; each walled structure has its own tag, in order.
+// Tag 1 is the ground (the bed's wall source); each walled structure has its own tag, in order.
 template <int D>
 void add_terrain_walls(Build<D>& b) {
   b.scene.boundary_tags.push_back("terrain");
@@ -114,6 +114,7 @@ void add_terrain_walls(Build<D>& b) {
     for (int d = 0; d < D; ++d) p[d] = b.tmodel->boundary[q][d];
     b.bparticles.push_back({p, b.tmodel->boundary_tag[q]});
   }
+  b.bed_source = terrain::bed_wall_source(b.tmodel);
 }
 
 }  // namespace

@@ -131,6 +131,16 @@ void make_particles(Build<D>& b) {
   }
   const real bmass = cfg.boundary_density * std::pow(dp, D);
   for (const auto& [p, tag] : b.bparticles) setup.boundary.add(p, cfg.boundary_density, bmass, 0, tag);
+  if constexpr (D == 3) {
+    if (b.bed_source && b.walls_near_flow) setup.wall_source = b.bed_source;
+    if (b.bed_source && !b.walls_near_flow) {
+      std::vector<Vec<3>> pos;
+      std::vector<uint32_t> tags;
+      for (int64_t t = 0; t < b.bed_source->tiles().count(); ++t) b.bed_source->lay(t, pos, tags);
+      for (size_t k = 0; k < pos.size(); ++k) setup.boundary.add(pos[k], cfg.boundary_density, bmass, 0, tags[k]);
+    }
+  }
+  setup.max_particles = b.scene.max_particles;
   const long total = static_cast<long>(setup.fluid.size() + setup.boundary.size());
   if (total > b.scene.max_particles)
     throw SceneError("dp", "the scene has " + std::to_string(total) + " particles, over limits.max_particles = " +

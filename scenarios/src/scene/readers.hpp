@@ -185,6 +185,10 @@ struct Build {
   real fluid_top = -1e300, fluid_bottom = 1e300;
   real inlet_speed_max = 0;
   std::vector<std::pair<Vec<D>, uint32_t>> bparticles;  // boundary particles and their tags
+  // Terrain: the bed's particles, laid near the flow by the solver (terrain.walls = "near_flow") or all at
+  // the start after the other boundary particles ("all").
+  std::shared_ptr<const WallSource<3>> bed_source;
+  bool walls_near_flow = true;
   real bottom = 0;                                       // the lowest particle (after the boundaries)
 };
 

@@ -24,7 +24,8 @@ void read_corridor(const Fields& t, terrain::CorridorSpec& corridor) {
 }
 
 void read_terrain_section(const json& j, const std::filesystem::path& base_dir, terrain::TerrainSpec& spec) {
-  Fields t(j.at("terrain"), "terrain", {"dem", "crs", "resolution", "layers", "corridor"});
+  Fields t(j.at("terrain"), "terrain", {"dem", "crs", "resolution", "layers", "corridor", "walls"});
+  if (t.has("walls")) t.string("walls", {"near_flow", "all"});
   std::filesystem::path dem = t.string("dem");
   if (dem.is_relative() && !base_dir.empty()) dem = base_dir / dem;
   spec.dem_path = dem.string();
@@ -168,6 +169,8 @@ void read_terrain(Build<D>& b) {
   b.release_material = Fields(b.j.at("release"), "release", {"polygon", "depth", "volume", "material"}).string("material");
   if (!b.material_index.count(b.release_material))
     throw SceneError("release.material", "no material named '" + b.release_material + "'");
+  const Fields t(b.j.at("terrain"), "terrain", {}, true);
+  b.walls_near_flow = !t.has("walls") || t.string("walls") == "near_flow";
   try {
     b.tmodel = std::make_shared<terrain::TerrainModel>(terrain::build_terrain(spec, b.dp, b.scene.max_particles));
   } catch (const terrain::TerrainError& e) {

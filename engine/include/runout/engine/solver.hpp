@@ -2,9 +2,9 @@
 // Weakly compressible SPH solver (thesis ch. 2 and eq. 4.1), 2D and 3D from one template.
 //
 // Data layout: structure of arrays, fluid and boundary particles in separate sets. Fluid particles are
-// re-sorted by cell every step; boundary particles never move and are sorted once. Work is done only in
-// cells holding fluid and in the boundary cells next to them, so boundary particles far from the flow cost
-// nothing per step.
+// re-sorted by cell every step; boundary particles never move and are re-sorted only when the set of wall
+// tiles alive changes (a wall source's tiles are laid ahead of the flow and dropped behind it). Work is done
+// only in cells holding fluid and in the boundary cells next to them.
 #include <array>
 #include <memory>
 #include <string>
@@ -16,6 +16,7 @@
 #include "runout/engine/rheology.hpp"
 #include "runout/engine/types.hpp"
 #include "runout/engine/wall_models.hpp"
+#include "runout/engine/wall_source.hpp"
 
 namespace runout {
 
@@ -133,6 +134,10 @@ struct SceneSetup {
   ParticleArrays<D> boundary;
   std::vector<LeakRegion<D>> leak_regions;
   std::vector<InletSpec<D>> inlets;
+  // Wall particles laid near the flow only (a terrain's bed), besides the `boundary` ones, which always exist.
+  std::shared_ptr<const WallSource<D>> wall_source;
+  // Most particles (fluid and boundary) alive at once; 0: no limit. Checked whenever wall tiles are laid.
+  long max_particles = 0;
 };
 
 struct StepStats {
@@ -181,6 +186,11 @@ class Solver {
   const std::vector<real>& fluid_shear_rate() const { return shear_rate_; }
   const std::vector<real>& boundary_pressure() const { return boundary_pressure_; }
   const StepStats& last_step() const { return stats_; }
+  // Wall particles: the most alive at once, all the scene describes (the fixed ones and every tile of the wall
+  // source), and a counter that changes whenever boundary() is rebuilt (its indices are then invalid).
+  size_t boundary_peak() const { return boundary_peak_; }
+  uint64_t boundary_described() const;
+  uint64_t boundary_generation() const { return boundary_generation_; }
   // Removes these fluid particles (indices into fluid()) as outflow, at once, for a region the caller models
   // no further (a terrain corridor's edge): their mass goes to the outflow balance, as through an open domain
   // face. The remaining particles are re-sorted: indices held before the call are invalid after it.
@@ -213,6 +223,10 @@ class Solver {
   ParticleArrays<D> fluid_, boundary_;
   std::vector<LeakRegion<D>> leak_regions_;
   std::vector<InletSpec<D>> inlets_;
+  std::shared_ptr<const WallSource<D>> wall_source_;
+  long max_particles_ = 0;
+  size_t boundary_peak_ = 0;
+  uint64_t boundary_generation_ = 0;
   std::vector<char> outflow_marked_;  // per fluid particle, set by remove_as_outflow; empty when none is
   uint32_t next_id_ = 0;
 
@@ -240,6 +254,10 @@ class Solver {
   real kinetic_inflow_ = 0;
 
   void sort_and_build_cells();
+  // wall_tiles.cpp: lays the wall source's tiles the flow needs (all of them missing or `force`), drops those
+  // it left, and sorts the boundary by cell.
+  void refresh_wall_tiles(bool force);
+  void sort_boundary();
   // One force evaluation (forces.cpp) and its steps.
   void evaluate(bool compute_dt);
   void update_fluid_state();              // EOS, per-particle volumes and the neighbour pack

@@ -35,6 +35,7 @@ struct RunSummary {
   real simulated_time = 0;
   double wall_seconds = 0;
   double particle_steps_per_second = 0;
+  real ended_at_rest = -1;   // [s] when the flow had been at rest output.rest_time (the run ended); -1: never
   std::string metrics_json;  // what metrics.json holds
 };
 

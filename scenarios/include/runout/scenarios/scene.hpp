@@ -29,6 +29,10 @@ struct OutputSettings {
   real series_interval = 0.01;    // [s] of simulated time between rows of series/run.csv
   real snapshot_interval = 0.0;   // [s]; 0 = only when snapshots are requested, then 20 over the run
   real inundation_threshold = 0.1; // [m] depth above which a terrain cell counts as inundated
+  // The run may end before its duration once the flow is at rest: every flow particle slower than rest_speed
+  // for rest_time of simulated time. 0: run the whole duration.
+  real rest_speed = 0.0;  // [m/s]
+  real rest_time = 1.0;   // [s]
 };
 
 // A parsed, validated scene: run settings plus the engine setup for its dimension.

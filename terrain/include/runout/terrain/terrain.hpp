@@ -5,12 +5,14 @@
 // x = map_x - origin_x, y = map_y - origin_y, z = elevation, so snapshots keep their precision.
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "runout/engine/parameters.hpp"
 #include "runout/engine/types.hpp"
+#include "runout/engine/wall_source.hpp"
 #include "runout/terrain/raster.hpp"
 
 namespace runout::terrain {
@@ -125,9 +127,11 @@ struct TerrainModel {
   // Largest height of the energy line above the ground over the reach (at least the release depth): the
   // sliding-block speed scale sqrt(2 g E) the default speed of sound is built on.
   double max_energy_height = 0.0;
-  // Particles.
+  // Particles. The bed's are laid near the flow during the run (bed_wall_source); per bed column, how many
+  // it has under its surface (0 off the corridor). The structures' wall particles always exist.
+  std::vector<uint16_t> bed_layers;
   std::vector<Vec<3>> boundary;
-  std::vector<uint32_t> boundary_tag;  // 1 = terrain, then one per walled structure (StructureInfo::tag)
+  std::vector<uint32_t> boundary_tag;  // one per walled structure (StructureInfo::tag; 1 is the bed's)
   std::vector<Vec<3>> fluid;
   std::vector<real> fluid_depth;       // below the release surface, for the hydrostatic start
   // Domain faces that lie on the DEM's edge (flow may leave there): [axis][low/high].
@@ -148,6 +152,11 @@ struct TerrainModel {
   // a face of its box that is not on the DEM's edge (flow through those is the engine's outflow).
   bool off_corridor(const Vec<3>& p) const;
 };
+
+// The bed's particles as a wall source (runout/engine/wall_source.hpp): tiles of kBedTileColumns x
+// kBedTileColumns bed columns; column (i, j) has bed_layers particles at bed - (k + 1/2) dp, tag 1.
+constexpr int kBedTileColumns = 1;
+std::shared_ptr<const WallSource<3>> bed_wall_source(std::shared_ptr<const TerrainModel> model);
 
 // Throws TerrainError naming the field at fault (terrain.dem, release.polygon, structures[k], dp) for bad
 // input, before any particle is made; `max_particles` bounds the particle count.

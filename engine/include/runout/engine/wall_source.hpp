@@ -1,0 +1,38 @@
+#pragma once
+// Wall particles made on demand. A wall source (a terrain's bed) cuts its wall particles into tiles of a
+// regular horizontal grid and lays the particles of any tile when asked, always the same ones in the same
+// order. The solver keeps alive only the tiles within kernel reach of the flow (plus a margin), so a run's
+// memory and work follow the wetted footprint, not the source's area (docs/design.md, "Walls near the flow").
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "runout/engine/types.hpp"
+
+namespace runout {
+
+// Tile (ix, iy) holds the particles with x in [x0 + ix size, x0 + (ix + 1) size) and y in [y0 + iy size, ...)
+// (2D: the x axis only, ny = 1). Tiles are numbered t = iy nx + ix.
+struct WallTileGrid {
+  real x0 = 0, y0 = 0, size = 1;
+  int64_t nx = 0, ny = 1;
+  int64_t count() const { return nx * ny; }
+};
+
+template <int D>
+class WallSource {
+ public:
+  virtual ~WallSource() = default;
+  virtual WallTileGrid tiles() const = 0;
+  // Appends tile t's particles: positions and boundary tags. The same particles in the same order every call.
+  virtual void lay(int64_t t, std::vector<Vec<D>>& positions, std::vector<uint32_t>& tags) const = 0;
+  // Particles in the tiles before t (in tile order): a particle's id is that plus its place in its tile, so
+  // ids are the same whether a tile is laid at the start or during the run.
+  virtual uint64_t first_index(int64_t t) const = 0;
+  // Every particle the source can lay.
+  virtual uint64_t total() const = 0;
+  // The lowest corner over all of them (the solver's cell origin does not move as tiles come and go).
+  virtual Vec<D> lowest() const = 0;
+};
+
+}  // namespace runout

@@ -1,0 +1,161 @@
+// Wall particles near the flow (wall_source.hpp): which of the wall source's tiles are alive, and the boundary
+// arrays rebuilt, sorted by cell, when that changes.
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <tuple>
+
+#include "impl.hpp"
+
+namespace runout {
+namespace {
+
+// A fluid particle needs every wall particle within the kernel support 2h at both evaluations of a step, and
+// moves at most v dt <= Mach cfl h in one (dt <= cfl h / c0): the tiles within 2h + cfl h max(1, 2 Mach) of it
+// must be alive when the step starts (Mach from the last step, doubled against its growth in one step). A
+// rebuild lays those within that reach + dp / 2, so the next one is due once the flow has gone about dp / 2
+// onto new ground, not every step.
+constexpr real kLayAhead = 0.5;  // [dp]
+
+// f(t) for every tile the box [p - reach, p + reach] touches.
+template <int D, class F>
+void for_tiles_near(const WallTileGrid& g, const Vec<D>& p, real reach, F&& f) {
+  auto range = [&](real x, real origin, int64_t n, int64_t& lo, int64_t& hi) {
+    const real a = std::floor((x - reach - origin) / g.size), b = std::floor((x + reach - origin) / g.size);
+    lo = a < 0 ? 0 : static_cast<int64_t>(std::min<real>(a, static_cast<real>(n)));
+    hi = b >= static_cast<real>(n) ? n - 1 : static_cast<int64_t>(std::max<real>(b, -1.0));
+  };
+  int64_t x0, x1, y0 = 0, y1 = 0;
+  range(p[0], g.x0, g.nx, x0, x1);
+  if constexpr (D == 3) range(p[1], g.y0, g.ny, y0, y1);
+  for (int64_t iy = y0; iy <= y1; ++iy)
+    for (int64_t ix = x0; ix <= x1; ++ix) f(iy * g.nx + ix);
+}
+
+// Keeps the entries of v whose keep[k] is set, in order.
+template <class T>
+void compact(std::vector<T>& v, const std::vector<char>& keep) {
+  size_t w = 0;
+  for (size_t k = 0; k < v.size(); ++k)
+    if (keep[k]) v[w++] = v[k];
+  v.resize(w);
+}
+
+}  // namespace
+
+template <int D>
+uint64_t Solver<D>::boundary_described() const {
+  return impl_->boundary_fixed + (wall_source_ ? wall_source_->total() : 0);
+}
+
+template <int D>
+void Solver<D>::refresh_wall_tiles(bool force) {
+  auto& I = *impl_;
+  const size_t n = fluid_.size();
+  const real h = config_.smoothing_length;
+  const real need = 2.0 * h + config_.cfl * h * std::max<real>(1.0, 2.0 * stats_.max_speed / config_.speed_of_sound);
+  if (!force) {
+    bool missing = false;
+    const WallTileGrid g = I.tiles;
+    const char* live = I.tile_live.data();
+#pragma omp parallel for schedule(static) reduction(|| : missing)
+    for (size_t i = 0; i < n; ++i)
+      for_tiles_near<D>(g, fluid_.position(i), need, [&](int64_t t) { missing = missing || !live[t]; });
+    if (!missing) return;
+  }
+  if (++I.mark_stamp == 0) {
+    std::fill(I.tile_mark.begin(), I.tile_mark.end(), 0u);
+    I.mark_stamp = 1;
+  }
+  std::vector<int64_t> wanted;
+  for (size_t i = 0; i < n; ++i)
+    for_tiles_near<D>(I.tiles, fluid_.position(i), need + kLayAhead * config_.dp, [&](int64_t t) {
+      if (I.tile_mark[t] == I.mark_stamp) return;
+      I.tile_mark[t] = I.mark_stamp;
+      wanted.push_back(t);
+    });
+  std::sort(wanted.begin(), wanted.end());
+
+  // Drop the particles of tiles no longer wanted; those kept keep their state (a DBC wall's density).
+  std::vector<char> keep(boundary_.size());
+  for (size_t b = 0; b < keep.size(); ++b) keep[b] = I.boundary_tile[b] < 0 || I.tile_mark[I.boundary_tile[b]] == I.mark_stamp;
+  for (int d = 0; d < D; ++d) compact(boundary_.pos[d], keep), compact(boundary_.vel[d], keep);
+  compact(boundary_.rho, keep), compact(boundary_.mass, keep), compact(boundary_.material, keep);
+  compact(boundary_.tag, keep), compact(boundary_.id, keep), compact(I.boundary_tile, keep);
+  compact(I.boundary_rank, keep), compact(boundary_rho_saved_, keep), compact(boundary_pressure_, keep);
+  for (int64_t t : I.live_tiles)
+    if (I.tile_mark[t] != I.mark_stamp) I.tile_live[t] = 0;
+
+  // Lay the new ones.
+  const real bmass = config_.boundary_density * std::pow(config_.dp, D);
+  std::vector<Vec<D>> pos;
+  std::vector<uint32_t> tags;
+  for (int64_t t : wanted) {
+    if (I.tile_live[t]) continue;
+    I.tile_live[t] = 1;
+    pos.clear();
+    tags.clear();
+    wall_source_->lay(t, pos, tags);
+    const uint64_t first = I.boundary_fixed + wall_source_->first_index(t);
+    for (size_t k = 0; k < pos.size(); ++k) {
+      boundary_.add(pos[k], config_.boundary_density, bmass, 0, tags[k]);
+      boundary_.id.back() = static_cast<uint32_t>(first + k);
+      I.boundary_tile.push_back(t);
+      I.boundary_rank.push_back(first + k);
+      boundary_rho_saved_.push_back(config_.boundary_density);
+      boundary_pressure_.push_back(0.0);
+    }
+  }
+  I.live_tiles = std::move(wanted);
+  sort_boundary();
+  ++boundary_generation_;
+  boundary_peak_ = std::max(boundary_peak_, boundary_.size());
+  if (max_particles_ > 0 && static_cast<long>(n + boundary_.size()) > max_particles_) {
+    std::ostringstream s;
+    s << fmt_time(time_) << ": " << boundary_.size() << " wall particles alive near " << n
+      << " flow particles, over limits.max_particles = " << max_particles_;
+    throw SimulationError(s.str());
+  }
+}
+
+// Sorts the boundary by cell (ties by rank) and indexes its cells.
+template <int D>
+void Solver<D>::sort_boundary() {
+  auto& I = *impl_;
+  const size_t nb = boundary_.size();
+  std::vector<std::tuple<uint64_t, uint64_t, uint32_t>> order(nb);
+#pragma omp parallel for schedule(static)
+  for (size_t b = 0; b < nb; ++b)
+    order[b] = {Impl::pack(I.coords(boundary_.position(b))), I.boundary_rank[b], static_cast<uint32_t>(b)};
+  std::sort(order.begin(), order.end());
+  auto permute = [&](auto& v) {
+    auto out = v;
+    for (size_t k = 0; k < nb; ++k) out[k] = v[std::get<2>(order[k])];
+    v.swap(out);
+  };
+  for (int d = 0; d < D; ++d) permute(boundary_.pos[d]), permute(boundary_.vel[d]);
+  permute(boundary_.rho), permute(boundary_.mass), permute(boundary_.material), permute(boundary_.tag);
+  permute(boundary_.id), permute(I.boundary_tile), permute(I.boundary_rank), permute(boundary_rho_saved_);
+  permute(boundary_pressure_);
+  I.bcell_key.clear();
+  I.bcell_begin.clear();
+  for (size_t k = 0; k < nb; ++k) {
+    const uint64_t key = std::get<0>(order[k]);
+    if (I.bcell_key.empty() || I.bcell_key.back() != key) {
+      I.bcell_key.push_back(key);
+      I.bcell_begin.push_back(static_cast<uint32_t>(k));
+    }
+  }
+  I.bcell_begin.push_back(static_cast<uint32_t>(nb));
+  I.bcell_stamp.assign(I.bcell_key.size(), 0);
+  boundary_drho_.assign(nb, 0.0);
+}
+
+template uint64_t Solver<2>::boundary_described() const;
+template uint64_t Solver<3>::boundary_described() const;
+template void Solver<2>::refresh_wall_tiles(bool);
+template void Solver<3>::refresh_wall_tiles(bool);
+template void Solver<2>::sort_boundary();
+template void Solver<3>::sort_boundary();
+
+}  // namespace runout
