@@ -217,6 +217,9 @@ const std::vector<Case> kRefused = {
          set(P("/domain"), {{"periodic", {true, false}}, {"min", {0, -1}}, {"max", {0.1, 1}}}), "domain.periodic",
          {"6h"}),
 
+    edit("RestSpeedNegative", set(P("/output/rest_speed"), -1), "output.rest_speed", {"[0, 100]"}),
+    edit("RestTimeZero", set(P("/output/rest_time"), 0), "output.rest_time", {"(0, 10000]"}),
+
     // A particle count over limits.max_particles.
     edit("OverMaxParticles", set(P("/limits/max_particles"), 100), "dp", {"limits.max_particles = 100"}),
     edit("OverDefaultMaxParticles",  // 3000 x 2000 fluid particles, over the default limit of 5e6
