@@ -154,3 +154,22 @@ TEST(WallTiles, MoreParticlesAliveThanTheLimitStopsTheRunNamingIt) {
     EXPECT_NE(std::string(e.what()).find("limits.max_particles"), std::string::npos) << e.what();
   }
 }
+
+// Deterministic: the tiles laid, their order and the run repeat bit for bit (one thread).
+TEST(WallTiles, TwoRunsLayTheSameTilesAndGiveTheSameBits) {
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  Solver<3> a(sliding_block(true, BoundaryPressure::dbc)), b(sliding_block(true, BoundaryPressure::dbc));
+  for (int k = 0; k < 300; ++k) {
+    a.step();
+    b.step();
+  }
+  omp_set_num_threads(threads);
+  EXPECT_EQ(a.boundary_generation(), b.boundary_generation());
+  EXPECT_EQ(a.boundary().id, b.boundary().id);
+  EXPECT_EQ(a.boundary().rho, b.boundary().rho);
+  for (int d = 0; d < 3; ++d) {
+    EXPECT_EQ(a.fluid().pos[d], b.fluid().pos[d]);
+    EXPECT_EQ(a.fluid().vel[d], b.fluid().vel[d]);
+  }
+}
