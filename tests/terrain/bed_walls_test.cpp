@@ -128,6 +128,19 @@ TEST(BedWalls, NearTheFlowGivesTheRunOfTheWholeBedWithAFractionOfItsParticles) {
   }
 }
 
+// The run's domain (its closed bottom) is the same whichever way the bed is laid: with the bed laid near the
+// flow only, it must still reach under the whole bed, not stop 4h under the release.
+TEST(BedWalls, TheDomainIsTheWholeBedsEitherWay) {
+  const Plane plane;
+  const Scene near = parse_scene(plane.scene("near_flow").dump(), plane.dir);
+  const Scene whole = parse_scene(plane.scene("all").dump(), plane.dir);
+  const SolverConfig& a = std::get<SceneSetup<3>>(near.setup).config;
+  const SolverConfig& b = std::get<SceneSetup<3>>(whole.setup).config;
+  for (int d = 0; d < 3; ++d) EXPECT_EQ(a.domain_min[d], b.domain_min[d]) << d;
+  for (int d = 0; d < 2; ++d) EXPECT_EQ(a.domain_max[d], b.domain_max[d]) << d;  // the top is open
+  EXPECT_LT(a.domain_min[2], 60.0 - 0.4 * 80.0) << "the bottom is under the plane's lowest point";
+}
+
 TEST(BedWalls, AnUnknownWallsChoiceIsRefusedNamingTheField) {
   const Plane plane;
   try {

@@ -19,6 +19,10 @@ void default_domain(const Build<D>& b, SolverConfig& cfg) {
     lo = lo.cwiseMin(setup.boundary.position(i));
     hi = hi.cwiseMax(setup.boundary.position(i));
   }
+  // The walls laid near the flow count from the start: the domain is the same as with all of them laid.
+  if constexpr (D == 3) {
+    if (setup.wall_source && setup.wall_source->total() > 0) lo = lo.cwiseMin(setup.wall_source->lowest());
+  }
   for (const auto& in : setup.inlets) {
     // The buffer behind the plane is part of the scene.
     const real back = in.at - in.direction * inlet_buffer_layers(cfg) * b.dp;
