@@ -15,6 +15,7 @@
 #include "runout/engine/geometry.hpp"
 #include "runout/scenarios/cost_model.hpp"
 #include "runout/terrain/terrain.hpp"
+#include "runout/terrain/vector.hpp"
 
 namespace runout {
 namespace {
@@ -224,10 +225,13 @@ json zone_exposure(const terrain::TerrainModel& tm, const terrain::InundationGri
 // Runout: the largest horizontal distance from the release polygon's centroid to a cell whose max depth
 // reaches the threshold.
 double runout_distance(const terrain::TerrainModel& tm, const terrain::InundationGrid& g, double threshold) {
+  // The mean of the vertices (of every ring when the release has several parts or holes).
   double cx = 0, cy = 0;
-  for (const auto& p : tm.release_polygon) cx += p[0], cy += p[1];
-  cx /= std::max<size_t>(1, tm.release_polygon.size());
-  cy /= std::max<size_t>(1, tm.release_polygon.size());
+  size_t n = 0;
+  for (const auto& ring : terrain::split_rings(tm.release_polygon))
+    for (const auto& p : ring) cx += p[0], cy += p[1], ++n;
+  cx /= std::max<size_t>(1, n);
+  cy /= std::max<size_t>(1, n);
   const terrain::Grid& md = g.max_depth();
   double best = 0;
   for (int j = 0; j < md.ny; ++j)
@@ -286,8 +290,9 @@ std::vector<terrain::MapOverlay> map_overlays(const terrain::TerrainModel& tm) {
   auto closed = [&](const terrain::Polyline& p) { return line(p, true); };
   for (const auto& st : tm.structures)
     overlays[0].lines.push_back(line(st.outline, st.kind != terrain::StructureKind::check_dam));
-  for (const auto& z : tm.protected_zones) overlays[1].lines.push_back(closed(z.polygon));
-  overlays[2].lines.push_back(closed(tm.release_polygon));
+  for (const auto& z : tm.protected_zones)
+    for (const auto& ring : terrain::split_rings(z.polygon)) overlays[1].lines.push_back(closed(ring));
+  for (const auto& ring : terrain::split_rings(tm.release_polygon)) overlays[2].lines.push_back(closed(ring));
   return overlays;
 }
 

@@ -32,6 +32,47 @@ json point_array(size_t min_points) {
   return {{"type", "array"}, {"items", point}, {"minItems", min_points}};
 }
 
+// {"layer", "name", "where", "crs"}: a feature of a vector file in place of a list of points.
+json layer_ref_schema() {
+  return {{"type", "object"},
+          {"description", "features of an OGR vector layer (GeoPackage, GeoJSON, Shapefile, ...), reprojected to the "
+                          "working CRS (docs/scene-format.md, \"Geometry from vector files\")"},
+          {"properties",
+           {{"layer", {{"type", "string"}, {"description", "the file, relative to the scene file"}}},
+            {"name", {{"type", "string"}, {"description", "the layer; optional when the file has one layer"}}},
+            {"where", {{"type", "string"}, {"description", "OGR SQL attribute filter, e.g. id = 'Dam1'"}}},
+            {"crs", {{"type", "string"},
+                     {"description", "the coordinates' CRS when the file has none (or to override it), e.g. EPSG:4326"}}}}},
+          {"required", {"layer"}},
+          {"additionalProperties", false}};
+}
+
+// A line or polygon in map coordinates: [x, y] points or a layer.
+json geometry_schema(size_t min_points, const std::string& doc) {
+  return {{"anyOf", {point_array(min_points), layer_ref_schema()}}, {"description", doc}};
+}
+
+json release_schema() {
+  const std::string doc = "the release area: polygons, holes allowed (no material in a hole)";
+  return {{"type", "object"},
+          {"properties",
+           {{"polygon", geometry_schema(3, doc)},
+            {"depth", {{"type", "number"}}},
+            {"volume", {{"type", "number"}}},
+            {"material", {{"type", "string"}}}}},
+          {"required", {"polygon", "material"}},
+          {"additionalProperties", false}};
+}
+
+json protected_zones_schema() {
+  const std::string doc = "the zone: polygons, holes allowed (a hole is not part of the zone)";
+  json zone = {{"type", "object"},
+               {"properties", {{"name", {{"type", "string"}}}, {"polygon", geometry_schema(3, doc)}}},
+               {"required", {"name", "polygon"}},
+               {"additionalProperties", false}};
+  return {{"type", "array"}, {"items", zone}};
+}
+
 // One declared key: its JSON shape, range and doc (a computed default said in the description).
 json field_schema(const FieldSpec& f) {
   json s;
@@ -39,7 +80,7 @@ json field_schema(const FieldSpec& f) {
     s = number_schema(f.parameters.front());
     if (!f.default_text.empty()) s.erase("default");
   } else if (f.shape == "polyline") {
-    s = point_array(f.min_points);
+    s = {{"anyOf", {point_array(f.min_points), layer_ref_schema()}}};
   } else if (f.shape == "vector") {
     json item = number_schema(f.parameters.front());
     item.erase("default");
@@ -145,9 +186,9 @@ json scene_schema() {
             {"limits", object},
             {"monitors", monitors_schema()},
             {"terrain", object},
-            {"release", object},
+            {"release", release_schema()},
             {"structures", structures_schema()},
-            {"protected_zones", array_of_objects},
+            {"protected_zones", protected_zones_schema()},
             {"fidelity", object}}}};
 }
 
@@ -185,7 +226,7 @@ std::string material_parameter_tables() {
 namespace {
 
 std::string shape_text(const FieldSpec& f) {
-  if (f.shape == "polyline") return "array of ≥ " + std::to_string(f.min_points) + " `[x, y]`";
+  if (f.shape == "polyline") return "array of ≥ " + std::to_string(f.min_points) + " `[x, y]`, or a layer";
   if (f.shape == "vector") return "array of `dimensions` numbers";
   if (f.shape == "indices") return "array of integers";
   return f.shape;

@@ -1,5 +1,6 @@
 // Raster I/O: the GDAL side of the terrain library. Everything GDAL stays in this file.
 #include "runout/terrain/raster.hpp"
+#include "runout/terrain/vector.hpp"
 
 #include <algorithm>
 #include <array>
@@ -398,6 +399,24 @@ Grid load_dem(const std::string& path, const DemOptions& options) {
 
   if (!reproject && !resample) return require_data(read_band1(src.get(), gt, srs_to_wkt(*src_srs), path), path);
   return require_data(warp_band1(src.get(), target ? *target : *src_srs, options.resolution, path), path);
+}
+
+std::string working_crs_wkt(const std::string& path, const DemOptions& options) {
+  ensure_gdal();
+  QuietErrors quiet;
+  Dataset src(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr,
+                         nullptr, nullptr));
+  if (!src) dem_error("cannot open '" + path + "' as a raster: " + last_gdal_error());
+  OGRSpatialReferenceH src_srs_h = GDALGetSpatialRef(src.get());
+  if (!src_srs_h || OGRSpatialReference::FromHandle(src_srs_h)->IsEmpty())
+    dem_error("'" + path + "' has no coordinate reference system (CRS); georeference it first");
+  const auto src_srs = srs_traditional(*OGRSpatialReference::FromHandle(src_srs_h));
+  double gt[6];
+  if (GDALGetGeoTransform(src.get(), gt) != CE_None)
+    dem_error("'" + path + "' has no geotransform (cell size and position unknown)");
+  const auto target = working_crs(*src_srs, options, gt, GDALGetRasterXSize(src.get()),
+                                  GDALGetRasterYSize(src.get()), path);
+  return srs_to_wkt(target ? *target : *src_srs);
 }
 
 // ---------------------------------------------------------------------------------------------------------
