@@ -8,6 +8,7 @@
 #include "runout/engine/rheology.hpp"
 #include "runout/engine/solver.hpp"
 #include "runout/scenarios/scene.hpp"
+#include "runout/terrain/hazard.hpp"
 #include "runout/terrain/terrain.hpp"
 
 namespace runout {
@@ -50,6 +51,23 @@ json layer_ref_schema() {
 // A line or polygon in map coordinates: [x, y] points or a layer.
 json geometry_schema(size_t min_points, const std::string& doc) {
   return {{"anyOf", {point_array(min_points), layer_ref_schema()}}, {"description", doc}};
+}
+
+json number_object(const std::vector<ParameterSpec>& specs, const std::string& doc) {
+  json props = json::object();
+  for (const auto& p : specs) props[p.key] = number_schema(p);
+  return {{"type", "object"}, {"properties", props}, {"additionalProperties", false}, {"description", doc}};
+}
+
+json output_schema() {
+  return {{"type", "object"},
+          {"properties",
+           {{"series_interval", {{"type", "number"}}},
+            {"snapshot_interval", {{"type", "number"}}},
+            {"inundation_threshold", {{"type", "number"}}},
+            {"intensity", number_object(terrain::intensity_parameters(),
+                                        "terrain scenes: thresholds of the intensity.tif classes")}}},
+          {"additionalProperties", false}};
 }
 
 json release_schema() {
@@ -182,7 +200,7 @@ json scene_schema() {
             {"inlets", array_of_objects},
             {"boundaries", array_of_objects},
             {"domain", object},
-            {"output", object},
+            {"output", output_schema()},
             {"limits", object},
             {"monitors", monitors_schema()},
             {"terrain", object},
@@ -267,6 +285,15 @@ std::string type_tables(const Types& types) {
 }  // namespace
 
 std::string monitor_type_tables() { return type_tables(monitor_types()); }
+
+std::string intensity_parameter_table() {
+  std::ostringstream s;
+  s << "| field | default | unit | accepted | meaning |\n|---|---|---|---|---|\n";
+  for (const auto& p : terrain::intensity_parameters())
+    s << "| `intensity." << p.key << "` | `" << format_number(p.default_value) << "` | " << p.unit << " | "
+      << range_text(p) << " | " << cell(p.doc) << " |\n";
+  return s.str();
+}
 std::string structure_type_tables() { return type_tables(terrain::structure_types()); }
 
 }  // namespace runout

@@ -13,6 +13,7 @@
 
 #include "runout/engine/monitors.hpp"
 #include "runout/engine/solver.hpp"
+#include "runout/terrain/hazard.hpp"
 
 namespace runout {
 namespace terrain {
@@ -29,6 +30,7 @@ struct OutputSettings {
   real series_interval = 0.01;    // [s] of simulated time between rows of series/run.csv
   real snapshot_interval = 0.0;   // [s]; 0 = only when snapshots are requested, then 20 over the run
   real inundation_threshold = 0.1; // [m] depth above which a terrain cell counts as inundated
+  terrain::IntensityThresholds intensity;  // output.intensity: the intensity.tif classes (terrain/hazard.hpp)
 };
 
 // A parsed, validated scene: run settings plus the engine setup for its dimension.
