@@ -13,6 +13,7 @@
 #include <ogrsf_frmts.h>
 
 #include "runout/scenarios/scene.hpp"
+#include "runout/scenarios/scene_map.hpp"
 #include "runout/scenarios/sweep.hpp"
 #include "runout/terrain/terrain.hpp"
 
@@ -212,6 +213,27 @@ TEST(SceneLayers, FlumeFromAGeographicGeoPackageBuildsTheSameParticles) {
     const Scene b = parse_at(b_scene, 0.02, tmp.path);
     expect_same_scene(a, b, 1e-6);
   }
+}
+
+TEST(SceneLayers, MapGeometryReadsTheLayersAsTheRunDoes) {
+  // scene_map (the service's map.json): a scene whose geometry is in layers draws what the inline scene draws.
+  TempDir tmp;
+  const std::vector<std::string> layout{"FD_P1", "CD_P2"};
+  const SceneMap a = scene_map(flume_inline(layout).dump(), tmp.path);
+  const SceneMap b = scene_map(flume_from_layers(tmp.path, "EPSG:32632", layout).dump(), tmp.path);
+  ASSERT_EQ(a.structures.size(), 2u);
+  ASSERT_EQ(b.structures.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_EQ(a.structures[k].name, b.structures[k].name);
+    EXPECT_EQ(a.structures[k].points, b.structures[k].points);
+    EXPECT_GE(b.structures[k].points.size(), 2u);
+  }
+  ASSERT_EQ(b.protected_zones.size(), a.protected_zones.size());
+  for (size_t k = 0; k < a.protected_zones.size(); ++k) EXPECT_EQ(a.protected_zones[k].points, b.protected_zones[k].points);
+  ASSERT_TRUE(a.release && b.release);
+  EXPECT_EQ(a.release->points, b.release->points);
+  ASSERT_EQ(a.sections.size(), b.sections.size());
+  EXPECT_EQ(a.sections[0].points, b.sections[0].points);
 }
 
 TEST(SceneLayers, RefusalsNameTheSceneField) {
