@@ -15,6 +15,8 @@
 #include "runout/engine/geometry.hpp"
 #include "runout/scenarios/cost_model.hpp"
 #include "runout/terrain/terrain.hpp"
+#include "runout/terrain/vector.hpp"
+#include "hazard_outputs.hpp"
 
 namespace runout {
 namespace {
@@ -117,12 +119,14 @@ class TerrainWatch {
       pos_.resize(f.size());
       vol_.resize(f.size());
       speed_.resize(f.size());
+      rho_.resize(f.size());
       for (size_t i = 0; i < f.size(); ++i) {
         pos_[i] = Vec<3>(f.pos[0][i], f.pos[1][i], f.pos[2][i]);
-        vol_[i] = f.mass[i] / materials[f.material[i]].density;
+        rho_[i] = materials[f.material[i]].density;
+        vol_[i] = f.mass[i] / rho_[i];
         speed_[i] = std::sqrt(f.vel[0][i] * f.vel[0][i] + f.vel[1][i] * f.vel[1][i] + f.vel[2][i] * f.vel[2][i]);
       }
-      grid_.update(pos_, vol_, speed_, t, threshold_);
+      grid_.update(pos_, vol_, speed_, t, threshold_, rho_);
     }
   }
   // Particles over the ground past the corridor's edge leave the model: removed as outflow and counted; the run fails once more than terrain.corridor.max_outflow of the released mass has gone so
@@ -193,7 +197,7 @@ class TerrainWatch {
   double threshold_;
   terrain::InundationGrid grid_;
   std::vector<Vec<3>> pos_;
-  std::vector<real> vol_, speed_;
+  std::vector<real> vol_, speed_, rho_;
   double released_mass_ = 0.0, outflow_mass_ = 0.0, outflow_first_time_ = 0.0;
   size_t outflow_particles_ = 0;
   std::array<double, 2> outflow_first_point_{};
@@ -224,10 +228,13 @@ json zone_exposure(const terrain::TerrainModel& tm, const terrain::InundationGri
 // Runout: the largest horizontal distance from the release polygon's centroid to a cell whose max depth
 // reaches the threshold.
 double runout_distance(const terrain::TerrainModel& tm, const terrain::InundationGrid& g, double threshold) {
+  // The mean of the vertices (of every ring when the release has several parts or holes).
   double cx = 0, cy = 0;
-  for (const auto& p : tm.release_polygon) cx += p[0], cy += p[1];
-  cx /= std::max<size_t>(1, tm.release_polygon.size());
-  cy /= std::max<size_t>(1, tm.release_polygon.size());
+  size_t n = 0;
+  for (const auto& ring : terrain::split_rings(tm.release_polygon))
+    for (const auto& p : ring) cx += p[0], cy += p[1], ++n;
+  cx /= std::max<size_t>(1, n);
+  cy /= std::max<size_t>(1, n);
   const terrain::Grid& md = g.max_depth();
   double best = 0;
   for (int j = 0; j < md.ny; ++j)
@@ -286,8 +293,9 @@ std::vector<terrain::MapOverlay> map_overlays(const terrain::TerrainModel& tm) {
   auto closed = [&](const terrain::Polyline& p) { return line(p, true); };
   for (const auto& st : tm.structures)
     overlays[0].lines.push_back(line(st.outline, st.kind != terrain::StructureKind::check_dam));
-  for (const auto& z : tm.protected_zones) overlays[1].lines.push_back(closed(z.polygon));
-  overlays[2].lines.push_back(closed(tm.release_polygon));
+  for (const auto& z : tm.protected_zones)
+    for (const auto& ring : terrain::split_rings(z.polygon)) overlays[1].lines.push_back(closed(ring));
+  for (const auto& ring : terrain::split_rings(tm.release_polygon)) overlays[2].lines.push_back(closed(ring));
   return overlays;
 }
 
@@ -327,19 +335,14 @@ json inundation_metrics(const terrain::TerrainModel& tm, const terrain::Inundati
           {"cell_size_m", g.max_depth().dx},
           {"runout_m", runout_distance(tm, g, out.inundation_threshold)},
           {"deposit_max_depth_m", deposit_max},
-          {"deposit_area_m2", deposit_cells * g.depth().cell_area()},
-          {"rasters", {"rasters/max_depth.tif", "rasters/max_speed.tif", "rasters/deposit_depth.tif",
-                       "rasters/max_depth.png"}}};
+          {"deposit_area_m2", deposit_cells * g.depth().cell_area()}};
 }
 
 // OUT/rasters (GeoTIFF in the DEM's CRS, aligned with its cells, and the map PNG), and the terrain metrics.
 json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::InundationGrid& g,
                            const OutputSettings& out, const fs::path& dir, const std::vector<Vec<3>>& final_pos,
-                           const std::vector<real>& final_vol) {
-  fs::create_directories(dir / "rasters");
-  terrain::write_geotiff((dir / "rasters" / "max_depth.tif").string(), g.max_depth());
-  terrain::write_geotiff((dir / "rasters" / "max_speed.tif").string(), g.max_speed());
-  terrain::write_geotiff((dir / "rasters" / "deposit_depth.tif").string(), g.depth());
+                           const std::vector<real>& final_vol, const RunLabel& label) {
+  const json hazard = write_hazard_outputs(g, out, dir / "rasters", label);
   terrain::write_depth_map_png((dir / "rasters" / "max_depth.png").string(), g.terrain(), g.max_depth(),
                                out.inundation_threshold, map_overlays(tm));
   json t;
@@ -351,6 +354,8 @@ json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::Inund
   t["release_depth_m"] = tm.release_depth;
   t["structures"] = structure_metrics(tm, final_pos, final_vol);
   t["inundation"] = inundation_metrics(tm, g, out);
+  for (auto it = hazard.begin(); it != hazard.end(); ++it) t["inundation"][it.key()] = it.value();
+  t["inundation"]["rasters"].push_back("rasters/max_depth.png");
   t["protected_zones"] = zone_exposure(tm, g, out.inundation_threshold);
   return t;
 }
@@ -668,8 +673,9 @@ json run_metrics(const Scene& scene, const Solver<D>& solver, const RunSummary& 
 template <int D>
 void add_terrain_metrics(json& m, const Scene& scene, const TerrainWatch<D>& watch, const fs::path& out_dir,
                          const std::string& status) {
+  const RunLabel label{scene.name, scene.dp, m.value("simulated_time_s", 0.0), status};
   m["terrain"] = write_terrain_outputs(*scene.terrain, watch.grid(), scene.output, out_dir, watch.positions(),
-                                       watch.volumes());
+                                       watch.volumes(), label);
   m["terrain"]["corridor_outflow"] = watch.corridor_outflow();
   if (watch.outflow_particles() > 0 && status != "failed") {
     std::ostringstream w;

@@ -8,6 +8,7 @@
 #include "runout/engine/rheology.hpp"
 #include "runout/engine/solver.hpp"
 #include "runout/scenarios/scene.hpp"
+#include "runout/terrain/hazard.hpp"
 #include "runout/terrain/terrain.hpp"
 
 namespace runout {
@@ -32,6 +33,69 @@ json point_array(size_t min_points) {
   return {{"type", "array"}, {"items", point}, {"minItems", min_points}};
 }
 
+// {"layer", "name", "where", "crs"}: a feature of a vector file in place of a list of points.
+json layer_ref_schema() {
+  return {{"type", "object"},
+          {"description", "features of an OGR vector layer (GeoPackage, GeoJSON, Shapefile, ...), reprojected to the "
+                          "working CRS (docs/scene-format.md, \"Geometry from vector files\")"},
+          {"properties",
+           {{"layer", {{"type", "string"}, {"description", "the file, relative to the scene file"}}},
+            {"name", {{"type", "string"}, {"description", "the layer; optional when the file has one layer"}}},
+            {"where", {{"type", "string"}, {"description", "OGR SQL attribute filter, e.g. id = 'Dam1'"}}},
+            {"crs", {{"type", "string"},
+                     {"description", "the coordinates' CRS when the file has none (or to override it), e.g. EPSG:4326"}}}}},
+          {"required", {"layer"}},
+          {"additionalProperties", false}};
+}
+
+// A line or polygon in map coordinates: [x, y] points or a layer.
+json geometry_schema(size_t min_points, const std::string& doc) {
+  return {{"anyOf", {point_array(min_points), layer_ref_schema()}}, {"description", doc}};
+}
+
+json number_object(const std::vector<ParameterSpec>& specs, const std::string& doc) {
+  json props = json::object();
+  for (const auto& p : specs) props[p.key] = number_schema(p);
+  return {{"type", "object"}, {"properties", props}, {"additionalProperties", false}, {"description", doc}};
+}
+
+json output_schema() {
+  return {{"type", "object"},
+          {"properties",
+           {{"series_interval", {{"type", "number"}}},
+            {"snapshot_interval", {{"type", "number"}}},
+            {"inundation_threshold", {{"type", "number"}}},
+            {"rest_speed", {{"type", "number"}, {"minimum", 0}, {"maximum", 100},
+                            {"description", "m/s: the run ends once every flow particle has stayed slower for "
+                                            "rest_time; 0 runs the whole duration"}}},
+            {"rest_time", {{"type", "number"}, {"exclusiveMinimum", 0}, {"maximum", 10000},
+                           {"description", "s: how long the flow must stay under rest_speed"}}},
+            {"intensity", number_object(terrain::intensity_parameters(),
+                                        "terrain scenes: thresholds of the intensity.tif classes")}}},
+          {"additionalProperties", false}};
+}
+
+json release_schema() {
+  const std::string doc = "the release area: polygons, holes allowed (no material in a hole)";
+  return {{"type", "object"},
+          {"properties",
+           {{"polygon", geometry_schema(3, doc)},
+            {"depth", {{"type", "number"}}},
+            {"volume", {{"type", "number"}}},
+            {"material", {{"type", "string"}}}}},
+          {"required", {"polygon", "material"}},
+          {"additionalProperties", false}};
+}
+
+json protected_zones_schema() {
+  const std::string doc = "the zone: polygons, holes allowed (a hole is not part of the zone)";
+  json zone = {{"type", "object"},
+               {"properties", {{"name", {{"type", "string"}}}, {"polygon", geometry_schema(3, doc)}}},
+               {"required", {"name", "polygon"}},
+               {"additionalProperties", false}};
+  return {{"type", "array"}, {"items", zone}};
+}
+
 // One declared key: its JSON shape, range and doc (a computed default said in the description).
 json field_schema(const FieldSpec& f) {
   json s;
@@ -39,7 +103,7 @@ json field_schema(const FieldSpec& f) {
     s = number_schema(f.parameters.front());
     if (!f.default_text.empty()) s.erase("default");
   } else if (f.shape == "polyline") {
-    s = point_array(f.min_points);
+    s = {{"anyOf", {point_array(f.min_points), layer_ref_schema()}}};
   } else if (f.shape == "vector") {
     json item = number_schema(f.parameters.front());
     item.erase("default");
@@ -141,13 +205,13 @@ json scene_schema() {
             {"inlets", array_of_objects},
             {"boundaries", array_of_objects},
             {"domain", object},
-            {"output", object},
+            {"output", output_schema()},
             {"limits", object},
             {"monitors", monitors_schema()},
             {"terrain", object},
-            {"release", object},
+            {"release", release_schema()},
             {"structures", structures_schema()},
-            {"protected_zones", array_of_objects},
+            {"protected_zones", protected_zones_schema()},
             {"fidelity", object}}}};
 }
 
@@ -185,7 +249,7 @@ std::string material_parameter_tables() {
 namespace {
 
 std::string shape_text(const FieldSpec& f) {
-  if (f.shape == "polyline") return "array of ≥ " + std::to_string(f.min_points) + " `[x, y]`";
+  if (f.shape == "polyline") return "array of ≥ " + std::to_string(f.min_points) + " `[x, y]`, or a layer";
   if (f.shape == "vector") return "array of `dimensions` numbers";
   if (f.shape == "indices") return "array of integers";
   return f.shape;
@@ -226,6 +290,15 @@ std::string type_tables(const Types& types) {
 }  // namespace
 
 std::string monitor_type_tables() { return type_tables(monitor_types()); }
+
+std::string intensity_parameter_table() {
+  std::ostringstream s;
+  s << "| field | default | unit | accepted | meaning |\n|---|---|---|---|---|\n";
+  for (const auto& p : terrain::intensity_parameters())
+    s << "| `intensity." << p.key << "` | `" << format_number(p.default_value) << "` | " << p.unit << " | "
+      << range_text(p) << " | " << cell(p.doc) << " |\n";
+  return s.str();
+}
 std::string structure_type_tables() { return type_tables(terrain::structure_types()); }
 
 }  // namespace runout

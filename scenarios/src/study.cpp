@@ -131,6 +131,8 @@ SweepResult run_sweep(RunStore& store, const Sweep& sweep, const SweepOptions& o
   for (int j = 1; j < jobs; ++j) pool.emplace_back(worker);
   worker();
   for (auto& t : pool) t.join();
+  if (!(options.stop && options.stop->load()))
+    result.differences = write_difference_rasters(options.out_root / sweep.name, result.variants);
   return result;
 }
 

@@ -35,6 +35,13 @@ std::vector<std::string> candidate_names(const json& base) {
   return names;
 }
 
+// Files of the layer references ({"layer": FILE, ...}) anywhere in a scene, as written.
+void layer_files(const json& j, std::set<std::string>& out) {
+  if (j.is_object() && j.contains("layer") && j["layer"].is_string()) out.insert(j["layer"].get<std::string>());
+  if (j.is_structured())
+    for (const auto& v : j) layer_files(v, out);
+}
+
 }  // namespace
 
 const std::vector<std::string>& fidelity_names() {
@@ -218,6 +225,13 @@ Manifest make_manifest(const std::string& resolved_scene_json, const std::filesy
     std::filesystem::path dem = scene["terrain"]["dem"].get<std::string>();
     if (dem.is_relative() && !base_dir.empty()) dem = base_dir / dem;
     m["dem_sha256"] = std::filesystem::exists(dem) ? file_sha256(dem.string()) : "missing";
+  }
+  std::set<std::string> layers;
+  layer_files(scene, layers);
+  for (const auto& name : layers) {  // a layout held in a GeoPackage changes the run when the file changes
+    std::filesystem::path p = name;
+    if (p.is_relative() && !base_dir.empty()) p = base_dir / p;
+    m["layer_sha256"][name] = std::filesystem::is_regular_file(p) ? file_sha256(p.string()) : "missing";
   }
   Manifest out;
   out.json = m.dump();

@@ -149,6 +149,12 @@ int sweep(const SweepArgs& a) {
   const size_t completed = std::count_if(result.runs.begin(), result.runs.end(),
                                          [](const auto& r) { return r.status == "completed"; });
   spdlog::info("sweep {}: {} of {} runs completed; stored in {}", sweep.name, completed, result.runs.size(), a.db);
+  if (!result.differences.empty()) {
+    std::string list;
+    for (const auto& v : result.differences) list += (list.empty() ? "" : ", ") + v;
+    spdlog::info("difference rasters against {} (rasters/diff_max_depth.tif, diff_max_hv.tif) for {}",
+                 sweep.variants.front().name, list);
+  }
   store.reset();  // closed before MPI ends (Ranks::finish)
   int code = completed == result.runs.size() ? 0 : 3;
   if (g_stop.load()) {

@@ -76,6 +76,26 @@ void check_scene_name(const json& scene, const std::string& field) {
 }
 
 // The parts of a scene that resolve_variant reads, checked so that it cannot throw on a wrong type.
+// The files a scene reads, with their fields: terrain.dem and every layer reference's "layer" (vector inputs,
+// docs/scene-format.md), wherever it stands.
+void layer_files(const json& j, const std::string& field, std::vector<std::pair<std::string, const json*>>& out) {
+  if (j.is_object()) {
+    if (j.contains("layer")) out.emplace_back(field + ".layer", &j["layer"]);
+    for (auto it = j.begin(); it != j.end(); ++it) layer_files(it.value(), at(field, it.key()), out);
+  } else if (j.is_array()) {
+    for (size_t k = 0; k < j.size(); ++k) layer_files(j[k], field + "[" + std::to_string(k) + "]", out);
+  }
+}
+
+std::vector<std::pair<std::string, const json*>> scene_files(const json& scene, const std::string& path) {
+  std::vector<std::pair<std::string, const json*>> out;
+  if (scene.contains("terrain") && scene["terrain"].is_object() && scene["terrain"].contains("dem"))
+    out.emplace_back(at(path, "terrain.dem"), &scene["terrain"]["dem"]);
+  for (const char* key : {"terrain", "release", "structures", "protected_zones", "monitors"})
+    if (scene.contains(key)) layer_files(scene[key], at(path, key), out);
+  return out;
+}
+
 void check_resolvable(const json& scene, const std::string& path) {
   if (scene.contains("dp") && !scene["dp"].is_number())
     throw ApiError(422, at(path, "dp"), "must be a number in [0.0001, 100]");
@@ -103,12 +123,10 @@ void check_resolvable(const json& scene, const std::string& path) {
         throw ApiError(422, at(path, "fidelity") + "." + it.key() + ".numerics", "must be an object of numerics fields");
     }
   }
-  // File names: relative, inside the service's scene directory.
-  if (scene.contains("terrain") && scene["terrain"].is_object() && scene["terrain"].contains("dem")) {
-    const json& dem = scene["terrain"]["dem"];
-    const std::string field = at(path, "terrain.dem");
-    if (!dem.is_string()) throw ApiError(422, field, "must be a file name relative to the service's scene directory");
-    const std::filesystem::path p = dem.get<std::string>();
+  // File names (the DEM and every vector layer): relative, inside the service's scene directory.
+  for (const auto& [field, value] : scene_files(scene, path)) {
+    if (!value->is_string()) throw ApiError(422, field, "must be a file name relative to the service's scene directory");
+    const std::filesystem::path p = value->get<std::string>();
     bool dotdot = false;
     for (const auto& part : p) dotdot = dotdot || part == "..";
     if (p.empty() || p.is_absolute() || dotdot || p.string().find('\\') != std::string::npos)
@@ -203,19 +221,19 @@ void record_built_scene(const Scene& s, JobSpec& spec) {
 // The files a scene names must be inside the scene directory after every symbolic link is followed (the
 // lexical check of check_resolvable is not enough: a link inside the directory may point anywhere).
 void check_contained(const json& scene, const std::string& path, const Limits& limits) {
-  if (!scene.contains("terrain") || !scene["terrain"].is_object() || !scene["terrain"].contains("dem") ||
-      !scene["terrain"]["dem"].is_string())
-    return;
   namespace fs = std::filesystem;
-  const std::string field = at(path, "terrain.dem");
-  const std::string dem = scene["terrain"]["dem"].get<std::string>();
-  std::error_code ec;
-  const fs::path root = fs::weakly_canonical(fs::absolute(limits.scene_dir.empty() ? fs::path(".") : limits.scene_dir), ec);
-  const fs::path file = ec ? fs::path() : fs::weakly_canonical(root / dem, ec);
-  const fs::path rel = file.lexically_relative(root);
-  if (ec || rel.empty() || *rel.begin() == ".." || rel == ".")
-    throw ApiError(422, field, "'" + dem.substr(0, 80) + "' resolves outside the service's scene directory (symbolic "
-                               "links followed) (accepted: a file inside --scene-dir)");
+  for (const auto& [field, value] : scene_files(scene, path)) {
+    if (!value->is_string()) continue;
+    const std::string name = value->get<std::string>();
+    std::error_code ec;
+    const fs::path root =
+        fs::weakly_canonical(fs::absolute(limits.scene_dir.empty() ? fs::path(".") : limits.scene_dir), ec);
+    const fs::path file = ec ? fs::path() : fs::weakly_canonical(root / name, ec);
+    const fs::path rel = file.lexically_relative(root);
+    if (ec || rel.empty() || *rel.begin() == ".." || rel == ".")
+      throw ApiError(422, field, "'" + name.substr(0, 80) + "' resolves outside the service's scene directory (symbolic "
+                                 "links followed) (accepted: a file inside --scene-dir)");
+  }
 }
 
 // Validates a resolved scene with the scene validator, under the particle budget; the built scene's particle

@@ -75,7 +75,7 @@ void Server::Impl::routes_results() {
       throw ApiError(500, "id", "cannot read the extent of job " + m[1].str() + "'s max_depth.tif: " + e.what());
     }
     if (!extent) throw ApiError(404, "id", "job " + m[1].str() + " has no map (maps exist for terrain scenes)");
-    const SceneMap map = scene_map(j.scene_json);
+    const SceneMap map = scene_map(j.scene_json, opt.scene_dir);
     auto coordinates = [](const MapFeature& f) {
       json c = json::array();
       for (const auto& p : f.points) c.push_back({p[0], p[1]});

@@ -21,11 +21,18 @@ InundationGrid::InundationGrid(const TerrainModel& model)
   max_speed_ = terrain_.like(0.0f);
   depth_ = terrain_.like(0.0f);
   arrival_ = terrain_.like(Grid::nodata);
+  max_hv_ = terrain_.like(0.0f);
+  max_pressure_ = terrain_.like(0.0f);
 }
 
 void InundationGrid::update(const std::vector<Vec<3>>& positions, const std::vector<real>& volumes,
-                            const std::vector<real>& speeds, double time, double threshold) {
+                            const std::vector<real>& speeds, double time, double threshold,
+                            const std::vector<real>& densities) {
   std::fill(depth_.values.begin(), depth_.values.end(), 0.0f);
+  vol_.assign(depth_.values.size(), 0.0);
+  hv_.assign(depth_.values.size(), 0.0);
+  rho_v2_.assign(depth_.values.size(), 0.0);
+  const bool with_rho = densities.size() == positions.size();
   const double h = 0.5 * dp_, inv_area = 1.0 / terrain_.cell_area();
   const Grid& g = terrain_;
   for (size_t p = 0; p < positions.size(); ++p) {
@@ -39,7 +46,13 @@ void InundationGrid::update(const std::vector<Vec<3>>& positions, const std::vec
       if (oy <= 0) continue;
       for (int i = std::max(0, static_cast<int>(std::floor(fx0))); i < std::min(g.nx, static_cast<int>(std::ceil(fx1))); ++i) {
         const double ox = std::min<double>(fx1, i + 1) - std::max<double>(fx0, i);
-        if (ox > 0) depth_.at(i, j) += static_cast<float>(share * ox * oy * inv_area);
+        if (ox <= 0) continue;
+        const double v = share * ox * oy;  // volume of the particle's share on this cell
+        const size_t c = static_cast<size_t>(j) * g.nx + i;
+        depth_.values[c] += static_cast<float>(v * inv_area);
+        vol_[c] += v;
+        hv_[c] += v * speeds[p];
+        if (with_rho) rho_v2_[c] += v * densities[p] * speeds[p] * speeds[p];
       }
     }
     int i, j;
@@ -47,6 +60,9 @@ void InundationGrid::update(const std::vector<Vec<3>>& positions, const std::vec
   }
   for (size_t c = 0; c < depth_.values.size(); ++c) {
     max_depth_.values[c] = std::max(max_depth_.values[c], depth_.values[c]);
+    max_hv_.values[c] = std::max(max_hv_.values[c], static_cast<float>(hv_[c] * inv_area));
+    if (with_rho && vol_[c] > 0 && depth_.values[c] >= threshold)  // the volume-weighted mean of rho v^2
+      max_pressure_.values[c] = std::max(max_pressure_.values[c], static_cast<float>(rho_v2_[c] / vol_[c]));
     if (threshold > 0 && std::isnan(arrival_.values[c]) && depth_.values[c] >= threshold)
       arrival_.values[c] = static_cast<float>(time);
   }

@@ -1,5 +1,6 @@
 // Raster I/O: the GDAL side of the terrain library. Everything GDAL stays in this file.
 #include "runout/terrain/raster.hpp"
+#include "runout/terrain/vector.hpp"
 
 #include <algorithm>
 #include <array>
@@ -400,39 +401,83 @@ Grid load_dem(const std::string& path, const DemOptions& options) {
   return require_data(warp_band1(src.get(), target ? *target : *src_srs, options.resolution, path), path);
 }
 
+std::string working_crs_wkt(const std::string& path, const DemOptions& options) {
+  ensure_gdal();
+  QuietErrors quiet;
+  Dataset src(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr,
+                         nullptr, nullptr));
+  if (!src) dem_error("cannot open '" + path + "' as a raster: " + last_gdal_error());
+  OGRSpatialReferenceH src_srs_h = GDALGetSpatialRef(src.get());
+  if (!src_srs_h || OGRSpatialReference::FromHandle(src_srs_h)->IsEmpty())
+    dem_error("'" + path + "' has no coordinate reference system (CRS); georeference it first");
+  const auto src_srs = srs_traditional(*OGRSpatialReference::FromHandle(src_srs_h));
+  double gt[6];
+  if (GDALGetGeoTransform(src.get(), gt) != CE_None)
+    dem_error("'" + path + "' has no geotransform (cell size and position unknown)");
+  const auto target = working_crs(*src_srs, options, gt, GDALGetRasterXSize(src.get()),
+                                  GDALGetRasterYSize(src.get()), path);
+  return srs_to_wkt(target ? *target : *src_srs);
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // write_geotiff
 
-void write_geotiff(const std::string& path, const Grid& grid) {
-  check_grid(grid, "write_geotiff");
+namespace {
+
+// Description, unit and metadata onto a dataset being written; false if GDAL refused one.
+bool describe(GDALDatasetH ds, GDALRasterBandH band, const RasterInfo& info) {
+  if (!info.description.empty()) GDALSetDescription(band, info.description.c_str());
+  if (!info.unit.empty() && GDALSetRasterUnitType(band, info.unit.c_str()) != CE_None) return false;
+  for (const auto& [key, value] : info.metadata)
+    if (GDALSetMetadataItem(ds, key.c_str(), value.c_str(), nullptr) != CE_None) return false;
+  return true;
+}
+
+void write_band(const std::string& path, const Grid& grid, const RasterInfo& info, GDALDataType type,
+                const char* what) {
+  check_grid(grid, what);
   ensure_gdal();
   QuietErrors quiet;
   ensure_parent_dir(path);
   const std::string tmp = path + ".tmp";
 
   GDALDriverH gtiff = GDALGetDriverByName("GTiff");
-  if (!gtiff) throw std::runtime_error("write_geotiff: GDAL has no GTiff driver");
-  Argv co{"COMPRESS=DEFLATE", "PREDICTOR=3", "TILED=YES", "BIGTIFF=IF_SAFER"};
-  Dataset ds(GDALCreate(gtiff, tmp.c_str(), grid.nx, grid.ny, 1, GDT_Float32, co.get()));
-  if (!ds) throw std::runtime_error("write_geotiff: cannot create '" + tmp + "': " + last_gdal_error());
-  auto fail = [&](const std::string& what) {
+  if (!gtiff) throw std::runtime_error(std::string(what) + ": GDAL has no GTiff driver");
+  Argv co{"COMPRESS=DEFLATE", type == GDT_Float32 ? "PREDICTOR=3" : "PREDICTOR=1", "TILED=YES", "BIGTIFF=IF_SAFER"};
+  Dataset ds(GDALCreate(gtiff, tmp.c_str(), grid.nx, grid.ny, 1, type, co.get()));
+  if (!ds) throw std::runtime_error(std::string(what) + ": cannot create '" + tmp + "': " + last_gdal_error());
+  auto fail = [&](const std::string& step) {
     const std::string msg = last_gdal_error();
     ds.reset();
     remove_quietly(tmp);
     remove_quietly(tmp + ".aux.xml");
-    throw std::runtime_error("write_geotiff: " + what + " for '" + path + "': " + msg);
+    throw std::runtime_error(std::string(what) + ": " + step + " for '" + path + "': " + msg);
   };
   double gt[6] = {grid.x0, grid.dx, 0.0, grid.y0, 0.0, -grid.dy};
   if (GDALSetGeoTransform(ds.get(), gt) != CE_None) fail("cannot set the geotransform");
   if (!grid.crs_wkt.empty() && GDALSetProjection(ds.get(), grid.crs_wkt.c_str()) != CE_None)
     fail("cannot set the CRS");
   GDALRasterBandH band = GDALGetRasterBand(ds.get(), 1);
-  if (GDALSetRasterNoDataValue(band, std::numeric_limits<double>::quiet_NaN()) != CE_None)
-    fail("cannot set nodata");
+  const double nodata = type == GDT_Float32 ? std::numeric_limits<double>::quiet_NaN() : 0.0;
+  if (GDALSetRasterNoDataValue(band, nodata) != CE_None) fail("cannot set nodata");
+  if (!describe(ds.get(), band, info)) fail("cannot set the description, unit or metadata");
   if (GDALRasterIO(band, GF_Write, 0, 0, grid.nx, grid.ny, const_cast<float*>(grid.values.data()), grid.nx,
                    grid.ny, GDT_Float32, 0, 0) != CE_None)
     fail("cannot write the values");
-  close_and_commit(ds, tmp, path, "write_geotiff");
+  close_and_commit(ds, tmp, path, what);
+}
+
+}  // namespace
+
+void write_geotiff(const std::string& path, const Grid& grid, const RasterInfo& info) {
+  write_band(path, grid, info, GDT_Float32, "write_geotiff");
+}
+
+void write_class_geotiff(const std::string& path, const Grid& classes, const RasterInfo& info) {
+  for (float v : classes.values)
+    if (!(v >= 0.0f && v <= 255.0f && v == std::floor(v)))
+      throw std::invalid_argument("write_class_geotiff: '" + path + "' has a value that is not a class 0-255");
+  write_band(path, classes, info, GDT_Byte, "write_class_geotiff");
 }
 
 // ---------------------------------------------------------------------------------------------------------

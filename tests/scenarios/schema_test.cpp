@@ -127,6 +127,9 @@ void check_generated_block(const std::string& marker, const std::string& want) {
 }  // namespace
 
 TEST(Schema, DocsMonitorTablesMatchTheDescriptors) { check_generated_block("monitor-types", monitor_type_tables()); }
+TEST(Schema, DocsIntensityTableMatchesTheDescriptors) {
+  check_generated_block("intensity-thresholds", intensity_parameter_table());
+}
 TEST(Schema, DocsStructureTablesMatchTheDescriptors) {
   check_generated_block("structure-types", structure_type_tables());
 }

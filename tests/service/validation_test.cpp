@@ -112,6 +112,9 @@ TEST_F(Validation, MalformedRequestsGetTheRight4xxAndLeaveTheStoreUnchanged) {
       {"scene name traversal", "POST", "/api/v1/jobs", job_with([](json& s) { s["name"] = "../../etc/cron.d/x"; }), 422, "scene.name", "'..'"},
       {"dem traversal", "POST", "/api/v1/jobs", job_with([](json& s) { s["terrain"] = {{"dem", "../../../etc/passwd"}}; }), 422, "scene.terrain.dem", "no '..'"},
       {"dem absolute", "POST", "/api/v1/jobs", job_with([](json& s) { s["terrain"] = {{"dem", "/etc/passwd"}}; }), 422, "scene.terrain.dem", "not absolute"},
+      {"layer absolute", "POST", "/api/v1/jobs", job_with([](json& s) { s["terrain"] = {{"dem", "dem.tif"}}; s["release"] = {{"polygon", {{"layer", "/etc/passwd"}}}}; }), 422, "scene.release.polygon.layer", "not absolute"},
+      {"layer over the network", "POST", "/api/v1/jobs", job_with([](json& s) { s["terrain"] = {{"dem", "dem.tif"}}; s["structures"] = {{{"name", "D"}, {"axis", {{"layer", "/vsicurl/http://169.254.169.254/x.geojson"}}}}}; }), 422, "scene.structures[0].axis.layer", "not absolute"},
+      {"layer traversal", "POST", "/api/v1/jobs", job_with([](json& s) { s["terrain"] = {{"dem", "dem.tif"}}; s["protected_zones"] = {{{"name", "V"}, {"polygon", {{"layer", "../../x.gpkg"}}}}}; }), 422, "scene.protected_zones[0].polygon.layer", "no '..'"},
       {"over the particle budget", "POST", "/api/v1/jobs", job_with([](json& s) { s["dp"] = 0.001; }), 422, "scene.dp", "5000"},
       {"over budget at a fidelity", "POST", "/api/v1/jobs", json{{"scene", ok}, {"fidelity", {{"dp", 0.0015}}}}.dump(), 422, "scene.dp", "particle budget"},
       // Layouts over a stored base.

@@ -21,7 +21,9 @@ void read_section(const Build<D>& b, const Fields& f, const MonitorType& type, M
   if constexpr (D == 3) {
     const real ox = b.tmodel ? b.tmodel->origin_x : 0.0, oy = b.tmodel ? b.tmodel->origin_y : 0.0;
     const FieldSpec& line = field_spec(type.fields, "line");
-    for (const auto& p : parse_polyline(f.raw(line.key), f.at(line.key), line.min_points))
+    ShapeSource src{b.base_dir, {}};
+    if (b.tmodel) src.working_crs = [&b] { return b.tmodel->dem.crs_wkt; };
+    for (const auto& p : read_shape(f.raw(line.key), f.at(line.key), line.min_points, terrain::ShapeKind::line, src))
       spec.points.push_back({p[0] - ox, p[1] - oy});
   } else {
     spec.points.push_back({read_parameter(f, field_spec(type.fields, "x").parameters.front()), 0.0});

@@ -3,6 +3,7 @@
 // refused with the field's path), and one reader per section of a scene fills a `Build<D>` in the order
 // build<D> (scene.cpp) calls them. docs/scene-format.md describes every section.
 #include <cmath>
+#include <functional>
 #include <map>
 #include <memory>
 #include <set>
@@ -17,6 +18,7 @@
 #include "runout/engine/parameters.hpp"
 #include "runout/scenarios/scene.hpp"
 #include "runout/terrain/terrain.hpp"
+#include "runout/terrain/vector.hpp"
 
 namespace runout::scene_reader {
 
@@ -157,6 +159,18 @@ OrientedBox<D> parse_box(const Fields& f);
 
 // A polyline or polygon: an array of [x, y] map coordinates.
 terrain::Polyline parse_polyline(const json& v, const std::string& field, size_t min_points);
+
+// Where a layer reference's file and CRS come from: the scene's folder and the working CRS (the DEM's, asked
+// only when a layer is read; unset where the scene has no terrain).
+struct ShapeSource {
+  std::filesystem::path base_dir;
+  std::function<std::string()> working_crs;
+};
+// A line or polygon in map coordinates: an array of [x, y] points (parse_polyline), or a layer reference
+// {"layer": FILE, "name": LAYER, "where": FILTER, "crs": CRS} read through terrain's read_vector_shape
+// (docs/scene-format.md, "Geometry from vector files"). Errors name `field`.
+terrain::Polyline read_shape(const json& v, const std::string& field, size_t min_points, terrain::ShapeKind kind,
+                             const ShapeSource& source);
 
 // "name[k]" for an element of an array section.
 inline std::string item(const std::string& section, size_t k) { return section + "[" + std::to_string(k) + "]"; }

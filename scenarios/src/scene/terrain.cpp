@@ -15,15 +15,18 @@ real declared(const Fields& f, const StructureType& type, const std::string& key
   return read_parameter(f, field_spec(type.fields, key).parameters.front());
 }
 
-void read_corridor(const Fields& t, terrain::CorridorSpec& corridor) {
+using terrain::ShapeKind;
+
+void read_corridor(const Fields& t, terrain::CorridorSpec& corridor, const ShapeSource& src) {
   Fields c(t.raw("corridor"), "terrain.corridor", {"travel_angle", "buffer", "polygon", "max_outflow"});
   corridor.travel_angle_deg = c.number_or("travel_angle", 11.0, 0.0, 60.0, true);
   corridor.buffer_m = c.number_or("buffer", 0.0, 0.0, 1e5);
-  if (c.has("polygon")) corridor.polygon = parse_polyline(c.raw("polygon"), c.at("polygon"), 3);
+  if (c.has("polygon")) corridor.polygon = read_shape(c.raw("polygon"), c.at("polygon"), 3, ShapeKind::multipolygon, src);
   corridor.max_outflow = c.number_or("max_outflow", 0.01, 0.0, 1.0);
 }
 
-void read_terrain_section(const json& j, const std::filesystem::path& base_dir, terrain::TerrainSpec& spec) {
+void read_terrain_section(const json& j, const std::filesystem::path& base_dir, terrain::TerrainSpec& spec,
+                          ShapeSource& src) {
   Fields t(j.at("terrain"), "terrain", {"dem", "crs", "resolution", "layers", "corridor", "walls"});
   if (t.has("walls")) t.string("walls", {"near_flow", "all"});
   std::filesystem::path dem = t.string("dem");
@@ -32,25 +35,33 @@ void read_terrain_section(const json& j, const std::filesystem::path& base_dir, 
   spec.dem.target_crs = t.string_or("crs", "");
   spec.dem.resolution = t.number_or("resolution", 0.0, 0.0, 1e4);
   spec.layers = static_cast<int>(t.integer("layers", 3, 2, 10));
-  if (t.has("corridor")) read_corridor(t, spec.corridor);
+  src.base_dir = base_dir;
+  src.working_crs = [path = spec.dem_path, options = spec.dem, wkt = std::make_shared<std::string>()]() {
+    if (wkt->empty()) *wkt = terrain::working_crs_wkt(path, options);  // the DEM's header, once
+    return *wkt;
+  };
+  if (t.has("corridor")) read_corridor(t, spec.corridor, src);
 }
 
-void read_release(const json& j, terrain::ReleaseSpec& release) {
+void read_release(const json& j, terrain::ReleaseSpec& release, const ShapeSource& src) {
   if (!j.contains("release")) throw SceneError("release", "missing (required in a terrain scene: polygon, depth or volume, material)");
   Fields r(j.at("release"), "release", {"polygon", "depth", "volume", "material"});
-  release.polygon = parse_polyline(r.raw("polygon"), r.at("polygon"), 3);
+  release.polygon = read_shape(r.raw("polygon"), r.at("polygon"), 3, ShapeKind::multipolygon, src);
   if (r.has("depth") == r.has("volume"))
     throw SceneError("release", "give exactly one of depth (m, in (0, 1000]) or volume (m3, in (0, 1e9])");
   release.depth = r.number_or("depth", 0.0, 0.0, 1000.0, true);
   release.volume = r.number_or("volume", 0.0, 0.0, 1e9, true);
 }
 
-terrain::Polyline read_line(const Fields& f, const StructureType& type, const std::string& key) {
-  return parse_polyline(f.raw(key), f.at(key), field_spec(type.fields, key).min_points);
+// A structure's geometry: an axis is one line, an area one ring (a deposition area's plane and a basin's
+// walls on its edges have no meaning for holes or several parts).
+terrain::Polyline read_line(const Fields& f, const StructureType& type, const std::string& key, const ShapeSource& src) {
+  const size_t min_points = field_spec(type.fields, key).min_points;
+  return read_shape(f.raw(key), f.at(key), min_points, min_points < 3 ? ShapeKind::line : ShapeKind::polygon, src);
 }
 
-void read_check_dam(const Fields& f, const StructureType& type, StructureSpec& st) {
-  st.line = read_line(f, type, "axis");
+void read_check_dam(const Fields& f, const StructureType& type, StructureSpec& st, const ShapeSource& src) {
+  st.line = read_line(f, type, "axis", src);
   st.crest_height = declared(f, type, "crest_height");
   st.thickness = declared(f, type, "thickness");
   if (!f.has("slit")) return;
@@ -62,8 +73,8 @@ void read_check_dam(const Fields& f, const StructureType& type, StructureSpec& s
     throw SceneError(sl.at("bottom"), "must be below crest_height (" + fmt(st.crest_height) + " m)");
 }
 
-void read_deposition_area(const Fields& f, const StructureType& type, StructureSpec& st) {
-  st.line = read_line(f, type, "polygon");
+void read_deposition_area(const Fields& f, const StructureType& type, StructureSpec& st, const ShapeSource& src) {
+  st.line = read_line(f, type, "polygon", src);
   if (f.has("elevation")) st.elevation = declared(f, type, "elevation");
   st.gradient = declared(f, type, "gradient");
 }
@@ -82,8 +93,8 @@ std::vector<int> read_open_edges(const Fields& f, size_t vertices) {
   return edges;
 }
 
-void read_retention_basin(const Fields& f, const StructureType& type, StructureSpec& st) {
-  st.line = read_line(f, type, "polygon");
+void read_retention_basin(const Fields& f, const StructureType& type, StructureSpec& st, const ShapeSource& src) {
+  st.line = read_line(f, type, "polygon", src);
   st.depth = declared(f, type, "depth");
   st.wall_height = declared(f, type, "wall_height");
   if (!(st.depth > 0) && !(st.wall_height > 0))
@@ -96,7 +107,7 @@ void read_retention_basin(const Fields& f, const StructureType& type, StructureS
 }
 
 // The scene side of each structure type: its fields into a StructureSpec, with the rules across fields.
-using StructureReader = void (*)(const Fields&, const StructureType&, StructureSpec&);
+using StructureReader = void (*)(const Fields&, const StructureType&, StructureSpec&, const ShapeSource&);
 StructureReader structure_reader(terrain::StructureKind kind) {
   switch (kind) {
     case terrain::StructureKind::check_dam: return read_check_dam;
@@ -115,7 +126,8 @@ std::set<std::string> keys_of(const Types& types) {
   return keys;
 }
 
-StructureSpec read_structure(const json& s, const std::string& path, std::set<std::string>& names) {
+StructureSpec read_structure(const json& s, const std::string& path, std::set<std::string>& names,
+                             const ShapeSource& src) {
   std::vector<std::string> type_names;
   for (const auto* t : terrain::structure_types()) type_names.push_back(t->name);
   const StructureType& type =
@@ -125,25 +137,25 @@ StructureSpec read_structure(const json& s, const std::string& path, std::set<st
   st.name = f.string("name");
   if (!names.insert(st.name).second) throw SceneError(f.at("name"), "duplicate structure name '" + st.name + "'");
   st.kind = type.kind;
-  structure_reader(type.kind)(f, type, st);
+  structure_reader(type.kind)(f, type, st, src);
   return st;
 }
 
-void read_structures(const json& j, std::vector<StructureSpec>& out) {
+void read_structures(const json& j, std::vector<StructureSpec>& out, const ShapeSource& src) {
   if (!j.contains("structures")) return;
   const json& ss = j.at("structures");
   if (!ss.is_array()) throw SceneError("structures", "must be an array of structures");
   std::set<std::string> names;
-  for (size_t k = 0; k < ss.size(); ++k) out.push_back(read_structure(ss[k], item("structures", k), names));
+  for (size_t k = 0; k < ss.size(); ++k) out.push_back(read_structure(ss[k], item("structures", k), names, src));
 }
 
-void read_protected_zones(const json& j, std::vector<terrain::ProtectedZone>& out) {
+void read_protected_zones(const json& j, std::vector<terrain::ProtectedZone>& out, const ShapeSource& src) {
   if (!j.contains("protected_zones")) return;
   const json& zs = j.at("protected_zones");
   if (!zs.is_array()) throw SceneError("protected_zones", "must be an array of {name, polygon}");
   for (size_t k = 0; k < zs.size(); ++k) {
     Fields z(zs[k], item("protected_zones", k), {"name", "polygon"});
-    out.push_back({z.string("name"), parse_polyline(z.raw("polygon"), z.at("polygon"), 3)});
+    out.push_back({z.string("name"), read_shape(z.raw("polygon"), z.at("polygon"), 3, ShapeKind::multipolygon, src)});
   }
 }
 
@@ -151,10 +163,11 @@ void read_protected_zones(const json& j, std::vector<terrain::ProtectedZone>& ou
 
 terrain::TerrainSpec parse_terrain_spec(const json& j, const std::filesystem::path& base_dir) {
   terrain::TerrainSpec spec;
-  read_terrain_section(j, base_dir, spec);
-  read_release(j, spec.release);
-  read_structures(j, spec.structures);
-  read_protected_zones(j, spec.protected_zones);
+  ShapeSource src;
+  read_terrain_section(j, base_dir, spec, src);
+  read_release(j, spec.release, src);
+  read_structures(j, spec.structures, src);
+  read_protected_zones(j, spec.protected_zones, src);
   return spec;
 }
 

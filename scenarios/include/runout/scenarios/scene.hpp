@@ -13,6 +13,7 @@
 
 #include "runout/engine/monitors.hpp"
 #include "runout/engine/solver.hpp"
+#include "runout/terrain/hazard.hpp"
 
 namespace runout {
 namespace terrain {
@@ -33,6 +34,7 @@ struct OutputSettings {
   // for rest_time of simulated time. 0: run the whole duration.
   real rest_speed = 0.0;  // [m/s]
   real rest_time = 1.0;   // [s]
+  terrain::IntensityThresholds intensity;  // output.intensity: the intensity.tif classes (terrain/hazard.hpp)
 };
 
 // A parsed, validated scene: run settings plus the engine setup for its dimension.

@@ -22,8 +22,11 @@ struct SceneMap {
 };
 
 // From a resolved scene's JSON (as stored with a job); a scene without terrain gives an empty map. Points
-// that are not pairs of numbers are left out (the scene was validated when the job was made).
-SceneMap scene_map(const std::string& resolved_scene_json);
+// that are not pairs of numbers are left out (the scene was validated when the job was made). A geometry
+// given as a layer reference ({"layer": ...}, files relative to `base_dir`) is read and reprojected as the
+// run read it; a polygon of several rings gives one feature per ring (the release: its first ring); a layer
+// that cannot be read any more gives a feature without points.
+SceneMap scene_map(const std::string& resolved_scene_json, const std::filesystem::path& base_dir = {});
 
 struct MapExtent {
   int nx = 0, ny = 0;

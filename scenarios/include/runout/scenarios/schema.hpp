@@ -17,5 +17,7 @@ std::string material_parameter_tables();
 // Between its "monitor-types" and "structure-types" markers: one table per monitor type and structure type.
 std::string monitor_type_tables();
 std::string structure_type_tables();
+// Between its "intensity-thresholds" markers: output.intensity's keys (terrain::intensity_parameters()).
+std::string intensity_parameter_table();
 
 }  // namespace runout

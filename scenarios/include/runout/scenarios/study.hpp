@@ -74,8 +74,18 @@ struct SweepOptions {
 struct SweepResult {
   std::vector<std::string> variants;
   std::vector<StoredRun> runs;  // one per variant, in the sweep's order (status "not run" if stopped first)
+  // Variants given difference rasters against the baseline (write_difference_rasters).
+  std::vector<std::string> differences;
 };
 
+// Runs the sweep's layouts (resumable through the store), then writes the difference rasters.
 SweepResult run_sweep(RunStore& store, const Sweep& sweep, const SweepOptions& options);
+
+// Per sweep: for each variant after the first (the baseline layout: C0, G0), SWEEP_DIR/<variant>/rasters/
+// diff_max_depth.tif and diff_max_hv.tif = the variant's raster minus the baseline's, on the union of their
+// windows (a cell outside one counts as 0 there), with a diverging QGIS style. A variant whose rasters or
+// the baseline's are not in SWEEP_DIR (not run here) is skipped. Returns the variants written.
+std::vector<std::string> write_difference_rasters(const std::filesystem::path& sweep_dir,
+                                                  const std::vector<std::string>& variants);
 
 }  // namespace runout

@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace runout::terrain {
@@ -81,9 +82,42 @@ std::string crs_wkt_from(const std::string& user_input);
 // Short human-readable name of a CRS ("WGS 84 / UTM zone 16N"), "" if the WKT is empty or unreadable.
 std::string crs_name(const std::string& crs_wkt);
 
+// What a written raster says of itself: the band's description and unit (QGIS shows them instead of
+// "Band 1"), and dataset metadata items (the run: scene, dp, time, ...).
+struct RasterInfo {
+  std::string description;
+  std::string unit;
+  std::vector<std::pair<std::string, std::string>> metadata;
+};
+
 // Single-band Float32 GeoTIFF with the grid's CRS and geotransform, NaN as nodata, deflate-compressed.
 // Written to a temporary name and renamed, so a reader never sees half a file.
-void write_geotiff(const std::string& path, const Grid& grid);
+void write_geotiff(const std::string& path, const Grid& grid, const RasterInfo& info = {});
+// A class raster (values 0-255 as Byte, 0 = no class and nodata), otherwise as write_geotiff.
+void write_class_geotiff(const std::string& path, const Grid& classes, const RasterInfo& info);
+
+// Polygons of a class grid (terrain/src/polygonize.cpp): one layer per entry, a feature per connected
+// region of equal nonzero class (GDALPolygonize, 4-connected, edges on the cell edges), with fields "class",
+// "label" (labels[class - 1]) and "area_m2". GeoPackage in the grid's CRS, written atomically.
+struct ClassLayer {
+  std::string name;
+  const Grid* classes = nullptr;
+  std::vector<std::string> labels;
+};
+void write_class_polygons(const std::string& path, const std::vector<ClassLayer>& layers);
+
+// a - b on the union of their extents (both on the same cell lattice: same cell size, edges a whole number
+// of cells apart, else std::invalid_argument); a cell outside one grid or NaN in it counts as 0 there.
+Grid difference_grid(const Grid& a, const Grid& b);
+
+// A QGIS layer style (.qml) for a single-band raster: a colour ramp from the stops' values (continuous), or
+// one colour per class value (paletted, exact values). Colours "#rrggbb".
+struct StyleStop {
+  double value;
+  std::string colour;
+  std::string label;
+};
+void write_qml(const std::string& path, const std::vector<StyleStop>& stops, bool classes);
 
 // A picture for people: the hillshaded terrain in grey with `depth` (same placement as `terrain`) drawn
 // over it in a blue colour ramp from `min_depth` to the grid's maximum; cells below min_depth stay grey.

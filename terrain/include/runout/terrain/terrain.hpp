@@ -171,11 +171,19 @@ class InundationGrid {
   explicit InundationGrid(const TerrainModel& model);
   // positions local; volume = m / rho; speed = |v|
   // `time` and `threshold` record each cell's first arrival: the first update at which its depth reaches
-  // the threshold.
+  // the threshold. `densities` (kg/m3 per particle, the material's bulk density) enable max_pressure.
   void update(const std::vector<Vec<3>>& positions, const std::vector<real>& volumes,
-              const std::vector<real>& speeds, double time = 0.0, double threshold = 0.0);
+              const std::vector<real>& speeds, double time = 0.0, double threshold = 0.0,
+              const std::vector<real>& densities = {});
   const Grid& max_depth() const { return max_depth_; }
   const Grid& max_speed() const { return max_speed_; }
+  // Running max of h v [m2/s]: per update, the depth times the cell's volume-weighted mean speed, i.e.
+  // (1 / cell area) * sum over the particles' shares on the cell of share volume * |v|.
+  const Grid& max_hv() const { return max_hv_; }
+  // Running max of the hydrodynamic impact pressure rho v^2 [Pa]: per update, the volume-weighted mean of
+  // rho |v|^2 over the particles' shares on the cell, where the depth reaches the threshold (0 elsewhere;
+  // all 0 without densities). docs/terrain.md says why this pressure.
+  const Grid& max_pressure() const { return max_pressure_; }
   const Grid& depth() const { return depth_; }
   const Grid& terrain() const { return terrain_; }
   const Grid& arrival_time() const { return arrival_; }  // [s]; NaN where the flow never reached the threshold
@@ -184,7 +192,9 @@ class InundationGrid {
 
  private:
   double origin_x_ = 0, origin_y_ = 0, dp_ = 0;
-  Grid terrain_, max_depth_, max_speed_, depth_, arrival_;
+  Grid terrain_, max_depth_, max_speed_, depth_, arrival_, max_hv_, max_pressure_;
+  // Per update and cell, sums over the particles' shares on it: volume, volume * |v|, volume * rho |v|^2.
+  std::vector<double> vol_, hv_, rho_v2_;
 };
 
 }  // namespace runout::terrain

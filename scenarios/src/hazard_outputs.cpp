@@ -1,0 +1,135 @@
+// A terrain run's hazard maps: rasters with their descriptions, units and run metadata, QGIS styles, and the
+// inundated area and intensity classes as polygons (hazard_outputs.hpp, docs/terrain.md "Hazard outputs").
+#include "hazard_outputs.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <sstream>
+
+#include "runout/terrain/hazard.hpp"
+
+#ifndef RUNOUT_VERSION
+#define RUNOUT_VERSION "unknown"
+#endif
+
+namespace runout {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+std::string text(double v) {
+  std::ostringstream s;
+  s.precision(10);
+  s << v;
+  return s.str();
+}
+
+std::string utc_now() {
+  const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+float grid_max(const terrain::Grid& g) {
+  float m = 0.0f;
+  for (float v : g.values)
+    if (!std::isnan(v)) m = std::max(m, v);
+  return m;
+}
+
+// A blue-to-red ramp over [lo, hi] in five stops, labelled with the unit.
+std::vector<terrain::StyleStop> ramp(double lo, double hi, const std::string& unit, double label_scale = 1.0,
+                                     const std::string& label_unit = "") {
+  static const char* colours[] = {"#ffffcc", "#a1dab4", "#41b6c4", "#2c7fb8", "#253494"};
+  if (!(hi > lo)) hi = lo + 1.0;
+  std::vector<terrain::StyleStop> stops;
+  for (int k = 0; k < 5; ++k) {
+    const double v = lo + (hi - lo) * k / 4.0;
+    std::ostringstream label;
+    label.precision(3);
+    label << v * label_scale << ' ' << (label_unit.empty() ? unit : label_unit);
+    stops.push_back({v, colours[k], label.str()});
+  }
+  return stops;
+}
+
+struct Writer {
+  fs::path dir;
+  std::vector<std::pair<std::string, std::string>> run;  // the run's metadata, on every raster
+  json files = json::array();
+
+  void raster(const std::string& name, const terrain::Grid& g, const std::string& description, const std::string& unit,
+              const std::vector<terrain::StyleStop>& style) {
+    terrain::write_geotiff((dir / (name + ".tif")).string(), g, {description, unit, run});
+    terrain::write_qml((dir / (name + ".qml")).string(), style, false);
+    files.push_back("rasters/" + name + ".tif");
+  }
+};
+
+}  // namespace
+
+const std::vector<DifferenceRaster>& difference_rasters() {
+  static const std::vector<DifferenceRaster> list = {
+      {"max_depth", "m", "maximum flow depth of this layout minus the baseline's"},
+      {"max_hv", "m2/s", "maximum depth x speed of this layout minus the baseline's"}};
+  return list;
+}
+
+json write_hazard_outputs(const terrain::InundationGrid& g, const OutputSettings& out, const fs::path& dir,
+                          const RunLabel& label) {
+  fs::create_directories(dir);
+  const double threshold = out.inundation_threshold;
+  const terrain::IntensityThresholds& it = out.intensity;
+  Writer w{dir,
+           {{"RUNOUT_SCENE", label.scene},
+            {"RUNOUT_DP_M", text(label.dp)},
+            {"RUNOUT_SIMULATED_TIME_S", text(label.simulated_time)},
+            {"RUNOUT_STATUS", label.status},
+            {"RUNOUT_INUNDATION_THRESHOLD_M", text(threshold)},
+            {"RUNOUT_CREATED_UTC", utc_now()},
+            {"RUNOUT_VERSION", RUNOUT_VERSION}}};
+  const float hmax = grid_max(g.max_depth()), vmax = grid_max(g.max_speed()), qmax = grid_max(g.max_hv()),
+              pmax = grid_max(g.max_pressure());
+  w.raster("max_depth", g.max_depth(), "maximum flow depth over the run", "m", ramp(threshold, hmax, "m"));
+  w.raster("max_speed", g.max_speed(), "maximum particle speed over the run", "m/s", ramp(0, vmax, "m/s"));
+  w.raster("deposit_depth", g.depth(), "flow depth at the end of the run", "m", ramp(threshold, grid_max(g.depth()), "m"));
+  w.raster("max_hv", g.max_hv(), "maximum over time of depth x depth-averaged speed", "m2/s", ramp(0, qmax, "m2/s"));
+  w.raster("arrival_time", g.arrival_time(), "first time the depth reached the inundation threshold (nodata: never)",
+           "s", ramp(0, grid_max(g.arrival_time()), "s"));
+  w.raster("max_pressure", g.max_pressure(), "maximum hydrodynamic impact pressure rho v^2", "Pa",
+           ramp(0, pmax, "Pa", 1e-3, "kPa"));
+
+  const terrain::Grid classes = terrain::intensity_classes(g.max_depth(), g.max_hv(), it, threshold);
+  auto meta = w.run;
+  meta.push_back({"RUNOUT_INTENSITY_CLASSES", "1 low, 2 medium, 3 high; 0 not inundated (nodata)"});
+  meta.push_back({"RUNOUT_INTENSITY_HIGH", "h >= " + text(it.high_depth) + " m or h v >= " + text(it.high_hv) + " m2/s"});
+  meta.push_back({"RUNOUT_INTENSITY_MEDIUM",
+                  "h >= " + text(it.medium_depth) + " m or h v >= " + text(it.medium_hv) + " m2/s"});
+  terrain::write_class_geotiff((dir / "intensity.tif").string(), classes,
+                               {"debris-flow intensity class (1 low, 2 medium, 3 high)", "class", meta});
+  terrain::write_qml((dir / "intensity.qml").string(),
+                     {{1, "#ffff00", "low"}, {2, "#ff9900", "medium"}, {3, "#e31a1c", "high"}}, true);
+  w.files.push_back("rasters/intensity.tif");
+
+  terrain::Grid inundated = g.max_depth().like(0.0f);
+  for (size_t c = 0; c < inundated.values.size(); ++c) inundated.values[c] = g.max_depth().values[c] >= threshold;
+  terrain::write_class_polygons((dir / "hazard.gpkg").string(),
+                                {{"inundated", &inundated, {"inundated"}}, {"intensity", &classes, terrain::intensity_labels()}});
+  w.files.push_back("rasters/hazard.gpkg");
+
+  json areas = json::object();
+  for (int k = 1; k <= 3; ++k) {
+    size_t n = 0;
+    for (float v : classes.values) n += v == static_cast<float>(k);
+    areas[terrain::intensity_labels()[k - 1]] = n * classes.cell_area();
+  }
+  return {{"max_hv_m2_s", qmax}, {"max_pressure_pa", pmax}, {"intensity_area_m2", areas}, {"rasters", w.files}};
+}
+
+}  // namespace runout

@@ -1,0 +1,60 @@
+// A sweep's difference rasters: each layout's max depth and max h v minus the baseline layout's
+// (study.hpp, write_difference_rasters; docs/terrain.md "Hazard outputs").
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "hazard_outputs.hpp"
+#include "runout/scenarios/study.hpp"
+#include "runout/terrain/raster.hpp"
+
+namespace runout {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Blue where the layout lowers the value, white unchanged, red where it raises it; symmetric about 0.
+std::vector<terrain::StyleStop> diverging(const terrain::Grid& d, const std::string& unit) {
+  float m = 0.0f;
+  for (float v : d.values)
+    if (!std::isnan(v)) m = std::max(m, std::abs(v));
+  if (!(m > 0)) m = 1.0f;
+  auto label = [&](double v) {
+    std::ostringstream s;
+    s.precision(3);
+    s << (v > 0 ? "+" : "") << v << ' ' << unit;
+    return s.str();
+  };
+  return {{-m, "#2166ac", label(-m)}, {-m / 2, "#92c5de", label(-m / 2)}, {0, "#f7f7f7", label(0)},
+          {m / 2, "#f4a582", label(m / 2)}, {m, "#b2182b", label(m)}};
+}
+
+}  // namespace
+
+std::vector<std::string> write_difference_rasters(const fs::path& sweep_dir, const std::vector<std::string>& variants) {
+  std::vector<std::string> written;
+  if (variants.size() < 2) return written;
+  const fs::path base = sweep_dir / variants.front() / "rasters";
+  for (size_t k = 1; k < variants.size(); ++k) {
+    const fs::path dir = sweep_dir / variants[k] / "rasters";
+    bool all = true;
+    for (const auto& r : difference_rasters()) {
+      const fs::path a = dir / (std::string(r.name) + ".tif"), b = base / (std::string(r.name) + ".tif");
+      if (!fs::is_regular_file(a) || !fs::is_regular_file(b)) {
+        all = false;
+        continue;
+      }
+      const terrain::Grid d = terrain::difference_grid(terrain::load_dem(a.string()), terrain::load_dem(b.string()));
+      const std::string name = std::string("diff_") + r.name;
+      terrain::write_geotiff((dir / (name + ".tif")).string(), d,
+                             {r.description, r.unit,
+                              {{"RUNOUT_LAYOUT", variants[k]}, {"RUNOUT_BASELINE", variants.front()},
+                               {"RUNOUT_DIFFERENCE", variants[k] + " - " + variants.front()}}});
+      terrain::write_qml((dir / (name + ".qml")).string(), diverging(d, r.unit), false);
+    }
+    if (all) written.push_back(variants[k]);
+  }
+  return written;
+}
+
+}  // namespace runout

@@ -1,0 +1,69 @@
+// QGIS layer styles (.qml) for the hazard rasters: a colour ramp or a palette, so a raster dropped into QGIS
+// shows with its legend rather than in grey.
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "runout/terrain/raster.hpp"
+
+namespace runout::terrain {
+namespace {
+
+std::string xml_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.9g", v);
+  return buf;
+}
+
+}  // namespace
+
+void write_qml(const std::string& path, const std::vector<StyleStop>& stops, bool classes) {
+  if (stops.empty()) throw std::invalid_argument("write_qml: no colour stops for '" + path + "'");
+  std::ostringstream q;
+  q << "<!DOCTYPE qgis PUBLIC 'http://mrcc.com/qgis.dtd' 'SYSTEM'>\n"
+    << "<qgis version=\"3.28.0\" styleCategories=\"Symbology\">\n  <pipe>\n";
+  if (classes) {
+    q << "    <rasterrenderer type=\"paletted\" band=\"1\" opacity=\"0.8\" alphaBand=\"-1\" nodataColor=\"\">\n"
+      << "      <colorPalette>\n";
+    for (const auto& s : stops)
+      q << "        <paletteEntry value=\"" << number(s.value) << "\" color=\"" << s.colour << "\" alpha=\"255\" label=\""
+        << xml_escape(s.label) << "\"/>\n";
+    q << "      </colorPalette>\n";
+  } else {
+    q << "    <rasterrenderer type=\"singlebandpseudocolor\" band=\"1\" opacity=\"0.8\" alphaBand=\"-1\" "
+      << "classificationMin=\"" << number(stops.front().value) << "\" classificationMax=\"" << number(stops.back().value)
+      << "\" nodataColor=\"\">\n      <rastershader>\n"
+      << "        <colorrampshader colorRampType=\"INTERPOLATED\" classificationMode=\"1\" clip=\"0\" minimumValue=\""
+      << number(stops.front().value) << "\" maximumValue=\"" << number(stops.back().value) << "\">\n";
+    for (const auto& s : stops)
+      q << "          <item value=\"" << number(s.value) << "\" color=\"" << s.colour << "\" alpha=\"255\" label=\""
+        << xml_escape(s.label) << "\"/>\n";
+    q << "        </colorrampshader>\n      </rastershader>\n";
+  }
+  q << "    </rasterrenderer>\n  </pipe>\n  <blendMode>0</blendMode>\n</qgis>\n";
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp);
+    out << q.str();
+    if (!out) throw std::runtime_error("write_qml: cannot write '" + tmp + "'");
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+}  // namespace runout::terrain
