@@ -209,7 +209,9 @@ void record_built_scene(const Scene& s, JobSpec& spec) {
   std::visit(
       [&](const auto& setup) {
         spec.fluid_particles = static_cast<int64_t>(setup.fluid.size());
-        spec.boundary_particles = static_cast<int64_t>(setup.boundary.size());
+        // Every wall particle the scene describes (a terrain's bed is laid near the flow: fewer are alive).
+        spec.boundary_particles =
+            static_cast<int64_t>(setup.boundary.size() + (setup.wall_source ? setup.wall_source->total() : 0));
       },
       s.setup);
   spec.cost = cost_features(s);
