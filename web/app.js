@@ -591,8 +591,10 @@ async function renderCharts(jobs) {
     await chart(s, `Hydrograph at ${s.slice(8)}`, s, 'discharge_m3_s', 'discharge [m³/s]');
   for (const s of sorted.filter((n) => n.startsWith('structure_load_'))) {
     const name = s.slice(15);
-    await chart(`${s}:force`, `Force on ${name}`, s, 'force_n', 'force [N]');
-    await chart(`${s}:pressure`, `Peak pressure on ${name}`, s, 'peak_pressure_pa', 'pressure [Pa]');
+    // Load-cell readings (window means, docs/scene-format.md "structure_load"); the single-particle pressure
+    // is a diagnostic in the CSV, not a design value.
+    await chart(`${s}:force`, `Force on ${name} (load-cell window)`, s, 'force_n', 'force [N]');
+    await chart(`${s}:pressure`, `Mean pressure on ${name} (load-cell window)`, s, 'mean_pressure_pa', 'pressure [Pa]');
   }
   if (names.has('run')) await chart('front', 'Front position', 'run', 'front_x', 'front x [m]');
   if (!box.children.length) box.append(Object.assign(document.createElement('p'), { className: 'muted', textContent: 'no series to plot' }));

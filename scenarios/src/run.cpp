@@ -582,6 +582,18 @@ json final_speed_metrics(const ParticleArrays<D>& f) {
           {"moving_fraction", speed.empty() ? 0.0 : static_cast<double>(moving) / speed.size()}};
 }
 
+// Has the flow kept its bulk density? Percentiles of rho/rho0 at the end: a cohesionless material carries no
+// tension, so a continuity density that drifts low is never pushed back (docs/tradeoff.md, "Density floor").
+template <int D>
+json final_density_metrics(const Solver<D>& solver) {
+  const auto& f = solver.fluid();
+  std::vector<real> ratio(f.size());
+  for (size_t i = 0; i < f.size(); ++i) ratio[i] = f.rho[i] / solver.materials()[f.material[i]].density;
+  std::sort(ratio.begin(), ratio.end());
+  auto pct = [&](double q) { return ratio.empty() ? 0.0 : ratio[static_cast<size_t>(q * (ratio.size() - 1))]; };
+  return {{"p5", pct(0.05)}, {"p50", pct(0.5)}, {"p95", pct(0.95)}, {"min", pct(0.0)}};
+}
+
 // metrics.json's settings: the numerics the run resolved to.
 template <int D>
 json settings_metrics(const Solver<D>& solver) {
@@ -661,6 +673,7 @@ json run_metrics(const Scene& scene, const Solver<D>& solver, const RunSummary& 
                  {"max_kinetic_minus_released_j", max_ke_excess}};
   m["front_x_m"] = front_position(solver.fluid());
   m["final_speed"] = final_speed_metrics(solver.fluid());
+  m["final_density_ratio"] = final_density_metrics(solver);
   m["settings"] = settings_metrics(solver);
   json tags = json::object();
   for (size_t k = 1; k < scene.boundary_tags.size(); ++k) tags[std::to_string(k)] = scene.boundary_tags[k];

@@ -39,12 +39,14 @@ TEST(StructureLoad, HydrostaticForceOnAWallIsHalfRhoGHSquared) {
   ASSERT_EQ(s.monitors.size(), 1u);
   Solver<2> solver(std::get<SceneSetup<2>>(s.setup));
   auto load = make_monitor<2>(s.monitors[0], solver);
-  while (solver.time() < 1.0) solver.step();
+  // As a run does: the monitor sees every step (it evaluates the load ~50 times a load-cell window).
+  while (solver.time() < 1.0) solver.step(), load->after_step(solver);
   // Average the last 0.2 s of samples to remove the remaining acoustic ripple.
   real sum = 0;
   int n = 0;
   while (solver.time() < 1.2) {
     solver.step();
+    load->after_step(solver);
     if (solver.steps() % 10 == 0) sum += load->sample(solver)[0], ++n;
   }
   const real expected = 0.5 * 1000 * 9.81 * 0.3 * 0.3;  // per metre of wall
@@ -53,6 +55,12 @@ TEST(StructureLoad, HydrostaticForceOnAWallIsHalfRhoGHSquared) {
   const auto row = load->sample(solver);
   EXPECT_NEAR(row[1], 0.5 * 1000 * 9.81 * 0.3, 0.1 * 0.5 * 1000 * 9.81 * 0.3);
   EXPECT_NEAR(row[3], 0.3, 0.03);  // wetted face height ~ H (one spacing)
+  // The load cell's window by default is the time a run-up takes to climb the wall and stall, sqrt(2H/g),
+  // H the wall's height (0.43 m of block, its particles' centres within one spacing of it).
+  real window = -1;
+  for (const auto& [k, v] : load->summary())
+    if (k == "load_window_s") window = v;
+  EXPECT_NEAR(window, std::sqrt(2 * 0.43 / 9.81), std::sqrt(2 * 0.43 / 9.81) - std::sqrt(2 * 0.40 / 9.81));
 }
 
 TEST(SectionGauge, VolumePassedIsExactlyTheVolumeOnTheDownstreamSide) {
@@ -92,6 +100,10 @@ TEST(SectionGauge, VolumePassedIsExactlyTheVolumeOnTheDownstreamSide) {
   EXPECT_EQ(sum[2].first, "arrival_time_s");
   EXPECT_GT(sum[2].second, 0.18);
   EXPECT_LT(sum[2].second, 0.6);
+  // The hydrograph's window: the time the 0.6 m column takes to fall its own depth, sqrt(2 x 0.6 / g) (the
+  // column's mean depth is its 30 rows of 0.02 m, counted exactly).
+  EXPECT_EQ(sum[5].first, "discharge_window_s");
+  EXPECT_NEAR(sum[5].second, std::sqrt(2 * 0.6 / 9.81), 1e-9);
 }
 
 TEST(SectionGauge, AColumnRunningOffASlopeIsFullyCountedDownstream) {

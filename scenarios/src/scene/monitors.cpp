@@ -29,6 +29,7 @@ void read_section(const Build<D>& b, const Fields& f, const MonitorType& type, M
     spec.points.push_back({read_parameter(f, field_spec(type.fields, "x").parameters.front()), 0.0});
   }
   spec.arrival_volume = read_parameter(f, field_spec(type.fields, "arrival_volume").parameters.front());
+  spec.window = read_parameter(f, field_spec(type.fields, "window").parameters.front());
 }
 
 template <int D>
@@ -54,6 +55,8 @@ void read_structure_load(const Build<D>& b, const Fields& f, const MonitorType& 
     for (const auto& st : b.tmodel->structures)
       if (st.name == target) spec.normal = {st.flow_normal[0], st.flow_normal[1], 0.0};
   }
+  spec.window = read_parameter(f, field_spec(type.fields, "window").parameters.front());
+  spec.min_wetted_area = read_parameter(f, field_spec(type.fields, "min_wetted_area").parameters.front());
 }
 
 // The scene side of each monitor type: its keys into a MonitorSpec (positions in the run's frame).

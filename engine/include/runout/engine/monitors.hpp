@@ -28,6 +28,11 @@ struct MonitorSpec {
   // components beyond the dimension ignored); a zero normal reports the magnitude of the force.
   uint32_t tag = 0;
   std::array<real, 3> normal{0, 0, 0};
+  // section and structure_load: the averaging window of the reported discharge or load [s]; structure_load: the
+  // least wetted area a mean pressure is taken over [m2, m in 2D]; 0 = derived from the flow or the structure
+  // (engine/src/monitors.cpp, load_filter.hpp).
+  real window = 0;
+  real min_wetted_area = 0;
 };
 
 template <int D>
