@@ -130,7 +130,7 @@ void read_depth_gauge(const Build<D>& b, const Fields& f, const MonitorType& typ
   for (const auto& q : at) {
     std::array<real, 3> p = {q[0], q[1], 0.0};  // 2D: x and the floor's height
     if constexpr (D == 3) p[2] = b.tmodel ? bed_under(b, f.at(key.key), q[0], q[1]) : floor;
-    check_in_domain(b, f.at(key.key), p, true);
+    check_in_domain(b, f.at(key.key), p, false);
     spec.probe_points.push_back(p);
   }
 }
