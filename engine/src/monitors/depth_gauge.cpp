@@ -162,12 +162,12 @@ class DepthGauge final : public Monitor<D> {
   // The deepest station: its depth, its surface height and where it is along the line.
   std::vector<real> sample(const Solver<D>& s) override {
     const auto& cfg = s.config();
-    const auto columns = columns_near(s.fluid(), feet_, 2.0 * cfg.smoothing_length);
+    const auto near = columns_near(s.fluid(), feet_, 2.0 * cfg.smoothing_length);
     std::vector<real> surface(feet_.size());
     with_kernel<D>(cfg.kernel, cfg.smoothing_length, [&](auto kernel) {
 #pragma omp parallel for schedule(dynamic, 1)
       for (size_t k = 0; k < feet_.size(); ++k)
-        surface[k] = surface_height(columns[k], feet_[k][D - 1], kernel, fill_, wet_);
+        surface[k] = surface_height(near[k], feet_[k][D - 1], kernel, fill_, wet_);
     });
     size_t deepest = 0;
     for (size_t k = 1; k < feet_.size(); ++k)

@@ -5,6 +5,7 @@
 // open), and on terrain over the modelled bed.
 #include "readers.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace runout::scene_reader {
