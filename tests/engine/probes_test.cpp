@@ -100,7 +100,7 @@ void expect_hydrostatic(const StillWaterRun<D>& r, size_t k, real H, real z) {
 
 }  // namespace
 
-TEST(PressureProbe, StillWater2DReadsRhoGDepthAndTheDepthGaugeTheFillHeight) {
+TEST(StillWaterProbes, StillWater2DReadsRhoGDepthAndTheDepthGaugeTheFillHeight) {
   // The shipped hydrostatic tank (0.3 m wide, filled to H = 0.3 m, dp = 0.01 m, h = 1.5 dp, 1 s).
   std::ifstream in(RUNOUT_SOURCE_DIR "/scenarios/validation/hydrostatic_2d.json");
   json scene = json::parse(in);
@@ -137,7 +137,7 @@ TEST(PressureProbe, StillWater2DReadsRhoGDepthAndTheDepthGaugeTheFillHeight) {
   EXPECT_NEAR(summary_value(r.summary[4], "max_depth_m"), H, 2 * r.dp);  // the start-up ripple included
 }
 
-TEST(PressureProbe, StillWater3DReadsRhoGDepthAndTheDepthGaugeTheFillHeight) {
+TEST(StillWaterProbes, StillWater3DReadsRhoGDepthAndTheDepthGaugeTheFillHeight) {
   // A 0.2 m x 0.2 m tank filled to H = 0.2 m at dp = 0.02 m (10 x 10 x 10 particles), the 2D tank's numerics.
   const real H = 0.2;
   json scene = json::parse(R"({
