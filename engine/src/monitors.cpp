@@ -1,4 +1,4 @@
-// Cross-section gauges and structure loads.
+// Cross-section gauges and structure loads, and the registration list (the point probes: src/monitors/).
 #include "runout/engine/monitors.hpp"
 
 #include <algorithm>
@@ -13,6 +13,7 @@
 #include "runout/engine/geometry.hpp"
 #include "runout/engine/kernels.hpp"
 #include "runout/engine/load_filter.hpp"
+#include "monitors/monitor_types.hpp"
 
 namespace runout {
 namespace {
@@ -395,12 +396,7 @@ class StructureLoad final : public Monitor<D> {
 };
 
 // The descriptors: what a scene writes for each type (docs/scene-format.md, "Monitors").
-template <template <int> class M>
-MonitorType monitor_type_of(std::string name, std::string doc, std::vector<FieldSpec> fields) {
-  return {std::move(name), std::move(doc), std::move(fields),
-          [](const MonitorSpec& s, const Solver<2>& v) { return std::make_unique<M<2>>(s, v); },
-          [](const MonitorSpec& s, const Solver<3>& v) { return std::make_unique<M<3>>(s, v); }};
-}
+using monitor_detail::monitor_type_of;
 
 FieldSpec normal_field() {
   FieldSpec f = shaped_field("normal", "vector", "the direction the flow pushes the structure (one number per axis, not all zero)",
@@ -439,6 +435,8 @@ const std::vector<const MonitorType*>& monitor_types() {
   static const std::vector<const MonitorType*> types = {
       &section_type,
       &structure_load_type,
+      &monitor_detail::pressure_probe_type(),
+      &monitor_detail::depth_gauge_type(),
   };
   return types;
 }

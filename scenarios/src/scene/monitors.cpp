@@ -67,6 +67,8 @@ MonitorReader<D> monitor_reader(const std::string& type) {
   static const std::map<std::string, MonitorReader<D>> readers = {
       {"section", read_section<D>},
       {"structure_load", read_structure_load<D>},
+      {"pressure_probe", read_pressure_probe<D>},
+      {"depth_gauge", read_depth_gauge<D>},
   };
   const auto it = readers.find(type);
   if (it == readers.end()) throw std::logic_error("monitor type '" + type + "' has no scene reader");

@@ -220,6 +220,12 @@ template <int D> void make_particles(Build<D>& b);
 template <int D> void read_domain(Build<D>& b);
 template <int D> void read_monitors(Build<D>& b);
 
+// The point probes' keys into a MonitorSpec (scene/probes.cpp), for read_monitors.
+template <int D>
+void read_pressure_probe(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec);
+template <int D>
+void read_depth_gauge(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec);
+
 // The terrain, release, structures and protected_zones sections (docs/scene-format.md, "Terrain scenes").
 terrain::TerrainSpec parse_terrain_spec(const json& j, const std::filesystem::path& base_dir);
 

@@ -21,6 +21,14 @@ struct MonitorSpec {
   std::string name;
   // section: the gauge line in plan, (x, y) per point (3D); in 2D one point whose x is the section.
   std::vector<std::array<real, 2>> points;
+  // pressure_probe, depth_gauge: positions in the run's frame, the vertical last ((x, y, z) in 3D, (x, y, unused)
+  // in 2D). pressure_probe: its one point; depth_gauge: each station's foot, the floor or bed it measures from.
+  std::vector<std::array<real, 3>> probe_points;
+  // depth_gauge along a line: each station's distance along it [m] (empty for a gauge at one point).
+  std::vector<real> probe_stations;
+  // pressure_probe, depth_gauge: the kernel sum sum_j V_j W (the interpolated fluid fraction) at or above which
+  // a point is wet.
+  real wet_kernel_sum = 0.5;
   // section: the flow volume that must have passed for the front to have arrived [m3, or m2 in 2D];
   // 0 = 0.5% of the fluid volume at the start.
   real arrival_volume = 0.0;
@@ -59,7 +67,7 @@ using MonitorFactory = std::function<std::unique_ptr<Monitor<D>>(const MonitorSp
 
 // A monitor type as a scene names it: its name, one line of doc, its keys (geometry and numbers, each declared
 // once: the scene parser, `runout schema` and docs/scene-format.md read them) and its factories. One
-// descriptor per type beside its class in src/monitors.cpp, listed once in monitor_types().
+// descriptor per type beside its class (src/monitors.cpp, src/monitors/*.cpp), listed once in monitor_types().
 struct MonitorType {
   std::string name;
   std::string doc;
@@ -72,7 +80,8 @@ const std::vector<const MonitorType*>& monitor_types();
 const MonitorType& monitor_type(const std::string& name);
 
 // Monitor types by name (from monitor_types()): "section" (cross-section gauge), "structure_load" (force and
-// pressure on a tagged structure).
+// pressure on a tagged structure), "pressure_probe" (pressure at a point), "depth_gauge" (flow depth at a
+// point or along a line).
 template <int D>
 const std::map<std::string, MonitorFactory<D>>& monitor_registry();
 

@@ -1,0 +1,39 @@
+#pragma once
+// What the monitor sources share (engine-internal): the descriptor maker, the descriptors each source defines
+// for monitor_types(), and the keys the point probes share.
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "runout/engine/kernels.hpp"
+#include "runout/engine/monitors.hpp"
+
+namespace runout::monitor_detail {
+
+// A monitor type whose class M<D> is built from (spec, solver) in 2D and 3D.
+template <template <int> class M>
+MonitorType monitor_type_of(std::string name, std::string doc, std::vector<FieldSpec> fields) {
+  return {std::move(name), std::move(doc), std::move(fields),
+          [](const MonitorSpec& s, const Solver<2>& v) { return std::make_unique<M<2>>(s, v); },
+          [](const MonitorSpec& s, const Solver<3>& v) { return std::make_unique<M<3>>(s, v); }};
+}
+
+// Descriptors defined in their own sources (function-local statics: monitor_types() may be asked before
+// another source's globals are built).
+const MonitorType& pressure_probe_type();  // monitors/pressure_probe.cpp
+const MonitorType& depth_gauge_type();     // monitors/depth_gauge.cpp
+
+// The keys the probes share, declared once (monitors/pressure_probe.cpp).
+ParameterSpec point_component();           // one coordinate of a `point` [m]
+FieldSpec wet_kernel_sum_field(real lo, bool lo_open, real hi, bool hi_open, const std::string& doc);
+
+// A gauge point of a spec: its first D coordinates (the vertical last).
+template <int D>
+Vec<D> probe_point(const MonitorSpec& spec, size_t k) {
+  Vec<D> p;
+  for (int d = 0; d < D; ++d) p[d] = spec.probe_points.at(k)[d];
+  return p;
+}
+
+}  // namespace runout::monitor_detail
