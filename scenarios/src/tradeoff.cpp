@@ -94,7 +94,8 @@ bool is_result_metric(const std::string& n) {
     const std::string s(p);
     return n.size() >= s.size() && n.compare(n.size() - s.size(), s.size(), s) == 0;
   };
-  if (starts("monitors.")) return true;
+  // A monitor's filter settings (its window, least wetted area) are inputs, not results.
+  if (starts("monitors.")) return !ends("_window_s") && !ends(".min_wetted_area_m2");
   if (starts("terrain.inundation.")) return !ends(".cell_size_m") && !ends(".threshold_m");
   if (starts("terrain.protected_zones.")) return true;
   if (starts("terrain.structures.")) return ends(".retained_volume_m3");

@@ -113,6 +113,9 @@ TEST(AnalyseTradeoff, NeverArrivedIsMissingNotMinusOneSecond) {
 
 TEST(IsResultMetric, ResultsAreMonitorsInundationZonesRetentionAndFront) {
   EXPECT_TRUE(is_result_metric("monitors.S1.peak_discharge_m3_s"));
+  EXPECT_FALSE(is_result_metric("monitors.section.S1.discharge_window_s"));
+  EXPECT_FALSE(is_result_metric("monitors.structure_load.D.load_window_s"));
+  EXPECT_FALSE(is_result_metric("monitors.structure_load.D.min_wetted_area_m2"));
   EXPECT_TRUE(is_result_metric("terrain.inundation.area_m2"));
   EXPECT_FALSE(is_result_metric("terrain.inundation.cell_size_m"));
   EXPECT_TRUE(is_result_metric("terrain.protected_zones.Fan.max_depth_m"));
