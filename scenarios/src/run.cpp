@@ -113,7 +113,7 @@ class TerrainWatch {
     if (model_) grid_ = terrain::InundationGrid(*model_);
   }
   bool active() const { return model_ != nullptr; }
-  // Volumes are m/rho0, debris at its bulk density (see the section gauge in engine/src/monitors.cpp).
+  // Volumes are m/rho0, debris at its bulk density (see the section gauge in engine/src/monitors/section.cpp).
   void update(const ParticleArrays<D>& f, const std::vector<MaterialParams>& materials, real t) {
     if constexpr (D == 3) {
       pos_.resize(f.size());

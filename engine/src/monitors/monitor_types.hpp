@@ -21,6 +21,8 @@ MonitorType monitor_type_of(std::string name, std::string doc, std::vector<Field
 
 // Descriptors defined in their own sources (function-local statics: monitor_types() may be asked before
 // another source's globals are built).
+const MonitorType& section_type();         // monitors/section.cpp
+const MonitorType& structure_load_type();  // monitors/structure_load.cpp
 const MonitorType& pressure_probe_type();  // monitors/pressure_probe.cpp
 const MonitorType& depth_gauge_type();     // monitors/depth_gauge.cpp
 

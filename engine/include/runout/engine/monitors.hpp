@@ -38,7 +38,7 @@ struct MonitorSpec {
   std::array<real, 3> normal{0, 0, 0};
   // section and structure_load: the averaging window of the reported discharge or load [s]; structure_load: the
   // least wetted area a mean pressure is taken over [m2, m in 2D]; 0 = derived from the flow or the structure
-  // (engine/src/monitors.cpp, load_filter.hpp).
+  // (engine/src/monitors/section.cpp, structure_load.cpp, load_filter.hpp).
   real window = 0;
   real min_wetted_area = 0;
 };
@@ -67,7 +67,7 @@ using MonitorFactory = std::function<std::unique_ptr<Monitor<D>>(const MonitorSp
 
 // A monitor type as a scene names it: its name, one line of doc, its keys (geometry and numbers, each declared
 // once: the scene parser, `runout schema` and docs/scene-format.md read them) and its factories. One
-// descriptor per type beside its class (src/monitors.cpp, src/monitors/*.cpp), listed once in monitor_types().
+// descriptor per type beside its class (src/monitors/*.cpp), listed once in monitor_types() (src/monitors.cpp).
 struct MonitorType {
   std::string name;
   std::string doc;
