@@ -1,13 +1,18 @@
-// The C0-C7 study on the shipped flume (scenarios/flume/), at the sweep's draft fidelity: the orderings the
-// study found (SPEC.md, "The scenario sets"; thesis section 4.5) must hold in our runs.
-//   - the peak force on a check dam at P2 (C3) exceeds that at P1 (C2): the flow accelerates down the chute;
-//   - a deposition area ahead of the P2 dam (C6) lowers that peak below C3;
-//   - a check dam cuts the outlet's peak discharge below C0;
-//   - a retention basin shrinks the inundated area and the runout below C0, the higher wall (C5) more than C4;
-//   - on the C1 layout, friction-HBP leaves a thicker, shorter deposit than plain HBP tuned to the same
-//     arrival time.
+// The C0-C7 study on the shipped flume (scenarios/flume/), at the sweep's draft fidelity with the scene's
+// numerics (the density floor with 10 % dilatancy). What a draft run can show, and nothing more:
+//   - physical facts on every layout: the run completes, no particle leaks, mass is conserved, and the
+//     granular material keeps its bulk density (final rho/rho0: p50 within 2 %, p5 no lower than the floor's
+//     0.9; without the floor the draft C1 and C6 end at p50 0.47, p5 0.17);
+//   - the study's findings on the metrics the C6 ladder (docs/tradeoff.md) shows within 10 % of fine at draft,
+//     the inundated area and the runout, where the layouts differ by more than that: a retention basin shrinks
+//     both below C0 (by 30-37 % at draft), and the area below C1 with the deposition area ahead (C7, 30 %);
+//     friction-HBP runs shorter than plain HBP tuned to the same arrival (18 %).
+// Not asserted, because the ladder shows the metric unconverged at draft (docs/study.md lists each with its
+// numbers): the dam forces (-90 % from fine at draft, -51 % at standard), the outlet's peak discharge and
+// volume (+92 %, +68 %), the deposit depth (+156 %), and the higher basin wall's effect (C5 vs C4 differ by
+// 7-11 %, within the draft's 6-7 % error on area and runout).
 // One test runs the whole sweep once (gtest_discover_tests runs each TEST in its own process, so splitting it
-// would run the sweep again per finding); each finding is its own EXPECT with the numbers in its message.
+// would run the sweep again per finding); each check is its own EXPECT with the numbers in its message.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -40,7 +45,7 @@ struct TempDir {
 
 }  // namespace
 
-TEST(FlumeStudy, DraftSweepShowsTheStudysOrderings) {
+TEST(FlumeStudy, DraftSweepKeepsMassAndDensityAndShowsTheConvergedFindings) {
   TempDir tmp;
   RunStore store(tmp.path / "runout.db");
   const Sweep sweep = load_sweep(kFlume / "c0_c7.json");
@@ -72,23 +77,30 @@ TEST(FlumeStudy, DraftSweepShowsTheStudysOrderings) {
   const std::string area = "terrain.inundation.inundated_area_m2";
   const std::string runout = "terrain.inundation.runout_m";
 
-  // Mass is conserved and the flow reaches the plain: in C0 most of the release passes the outlet.
-  const double released = at("C0", "terrain.release_volume_m3");
-  EXPECT_GT(at("C0", "monitors.section.Outlet.volume_passed_m3"), 0.5 * released);
+  // Physical facts on every layout.
+  for (const auto& [variant, mv] : m) {
+    EXPECT_NEAR(at(variant, "mass.final_kg") + at(variant, "mass.outflow_kg"), at(variant, "mass.initial_kg"),
+                1e-9 * at(variant, "mass.initial_kg"))
+        << variant << ": mass";
+    // A weakly compressible flow at Mach <= 0.1 compresses by about 1 % (rho g h / (rho c0^2) = 0.1 % under the
+    // deposit's own weight here); 2 % bounds the bulk's density at rest either way.
+    EXPECT_NEAR(at(variant, "final_density_ratio.p50"), 1.0, 0.02) << variant << ": bulk density";
+    // The floor lets the material dilate by 10 % at most: loose against dense random packing.
+    EXPECT_GE(at(variant, "final_density_ratio.p5"), 0.9 - 1e-9) << variant << ": dilated beyond 10 %";
+  }
 
-  EXPECT_GT(at("C3", force_p2), at("C2", force_p1)) << "peak force on the dam at P2 vs at P1";
-  EXPECT_LT(at("C6", force_p2), at("C3", force_p2)) << "deposition area ahead of the P2 dam";
-  EXPECT_LT(at("C3", outlet_q), at("C0", outlet_q)) << "check dam at P2 vs nothing, outlet peak discharge";
-  EXPECT_LT(at("C2", outlet_q), at("C0", outlet_q)) << "check dam at P1 vs nothing, outlet peak discharge";
+  // Findings on the inundated area and the runout.
   EXPECT_LT(at("C4", area), at("C0", area)) << "basin, inundated area";
   EXPECT_LT(at("C4", runout), at("C0", runout)) << "basin, runout";
-  EXPECT_LT(at("C5", area), at("C4", area)) << "higher basin wall, inundated area";
-  EXPECT_LT(at("C5", runout), at("C4", runout)) << "higher basin wall, runout";
+  EXPECT_LT(at("C5", area), at("C0", area)) << "higher-walled basin, inundated area";
+  EXPECT_LT(at("C5", runout), at("C0", runout)) << "higher-walled basin, runout";
+  EXPECT_LT(at("C7", area), at("C1", area)) << "basin behind the deposition area, inundated area";
 
   // Friction-HBP against plain HBP "tuned to the same arrival time" (SPEC.md) on the C1 layout: a constant
   // tau_y chosen once so that the plain-HBP front reaches the Outlet when the friction-HBP one does (found by
   // runs at 200-900 Pa, docs/study.md; the literal 1.3 kPa of the thesis' table stops on our 38 degree chute,
-  // see there). The tuning is checked here (within 10 %) before the deposits are compared.
+  // see there). The tuning is checked here (within 10 %) before the runouts are compared (the deposit depths
+  // are not: at draft a deposit's depth is a few stacked particles, +156 % from fine on the C6 ladder).
   constexpr double kTunedYieldStress = 750.0;  // Pa; 700 Pa arrives 10 % early, 800 Pa 12 % late
   json hbp = json::parse(resolve_variant(sweep.base_json, sweep.variants.at(1), sweep.fidelity));
   auto& mat = hbp["materials"][0];
@@ -106,8 +118,6 @@ TEST(FlumeStudy, DraftSweepShowsTheStudysOrderings) {
   const auto h = store.metrics(plain.run_id);
   const std::string t0 = "monitors.section.Outlet.arrival_time_s";
   ASSERT_NEAR(h.at(t0), at("C1", t0), 0.1 * at("C1", t0)) << "plain HBP not tuned to the same arrival time";
-  EXPECT_GT(at("C1", "terrain.inundation.deposit_max_depth_m"), h.at("terrain.inundation.deposit_max_depth_m"))
-      << "friction-HBP deposit thicker than plain HBP";
   EXPECT_LT(at("C1", runout), h.at(runout)) << "friction-HBP runout shorter than plain HBP";
 
   // The table, for docs/study.md.
