@@ -2,7 +2,7 @@
 // numerics (the density floor with 10 % dilatancy). What a draft run can show, and nothing more:
 //   - physical facts on every layout: the run completes, no particle leaks, mass is conserved, and the
 //     granular material keeps its bulk density (final rho/rho0: p50 within 2 %, p5 no lower than the floor's
-//     0.9; without the floor the draft C1 and C6 end at p50 0.47, p5 0.17);
+//     0.9; without the floor the draft C1 and C6 end at p50 0.51 and 0.47, p5 0.17);
 //   - the study's findings on the metrics the C6 ladder (docs/tradeoff.md) shows within 10 % of fine at draft,
 //     the inundated area and the runout, where the layouts differ by more than that: a retention basin shrinks
 //     both below C0 (by 30-37 % at draft), and the area below C1 with the deposition area ahead (C7, 30 %);
