@@ -37,6 +37,9 @@ export const tableNumber = (v, digits = 6) => (v == null ? '–' : String(Number
 // Errors beside fields
 
 const SLOTS = ['scene_id', 'scene', 'structures', 'variant', 'name', 'fidelity', 'Authorization', 'form'];
+// The job form's slots: an estimate or a submission answers these, never the scene store's message (an
+// estimate scheduled at page load could otherwise wipe the message a refused scene just got).
+const FORM_SLOTS = SLOTS.filter((s) => s !== 'scene');
 
 // Which form field an API error belongs to (its `field` is a JSON path into the body, a header or "(body)").
 function slotFor(field, context) {
@@ -225,7 +228,7 @@ function scheduleEstimate() {
 async function runEstimate() {
   const seq = ++state.estimateSeq;
   const box = $('estimate');
-  clearErrors();
+  clearErrors(FORM_SLOTS);
   if (!state.scene) {
     box.replaceChildren();
     return;
@@ -309,7 +312,7 @@ function definitionList(rows) {
 
 async function submit(ev) {
   ev.preventDefault();
-  clearErrors();
+  clearErrors(FORM_SLOTS);
   const status = $('submit-status');
   if (!state.scene) {
     showError(new ApiError(0, 'scene_id', 'pick a stored scene, or add one'));
