@@ -1,7 +1,10 @@
 #pragma once
 // What the monitor sources share (engine-internal): the descriptor maker, the descriptors each source defines
 // for monitor_types(), and the keys the point probes share.
+#include <cmath>
+#include <cstdint>
 #include <memory>
+#include <unordered_set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -18,6 +21,22 @@ MonitorType monitor_type_of(std::string name, std::string doc, std::vector<Field
           [](const MonitorSpec& s, const Solver<2>& v) { return std::make_unique<M<2>>(s, v); },
           [](const MonitorSpec& s, const Solver<3>& v) { return std::make_unique<M<3>>(s, v); }};
 }
+
+// A footprint counted in particle spacings: the distinct dp x dp cells (dp cells along `a` alone when `b` is
+// not given) of the points added. The section's release depth and the structure load's wetted face use it.
+class CellCount {
+ public:
+  explicit CellCount(real dp) : dp_(dp) {}
+  void add(real a, real b = 0) {
+    const auto cell = [this](real x) { return static_cast<int64_t>(std::floor(x / dp_)) + (int64_t(1) << 30); };
+    cells_.insert((cell(a) << 32) + cell(b));
+  }
+  size_t size() const { return cells_.size(); }
+
+ private:
+  real dp_;
+  std::unordered_set<int64_t> cells_;
+};
 
 // Descriptors defined in their own sources (function-local statics: monitor_types() may be asked before
 // another source's globals are built).

@@ -4,7 +4,6 @@
 #include <limits>
 #include <stdexcept>
 #include <unordered_map>
-#include <unordered_set>
 
 #include "runout/engine/geometry.hpp"
 #include "runout/engine/load_filter.hpp"
@@ -117,19 +116,17 @@ class SectionGauge final : public Monitor<D> {
   static real release_time(const Solver<D>& s, bool inlets_only) {
     const auto& f = s.fluid();
     const real dp = s.config().dp;
-    std::unordered_set<int64_t> columns;
+    CellCount columns(dp);
     size_t n = 0;
     for (size_t i = 0; i < f.size(); ++i) {
       if (Solver<D>::is_inlet_buffer(f.tag[i]) && !inlets_only) continue;
       ++n;
-      int64_t key = static_cast<int64_t>(std::floor(f.pos[0][i] / dp)) + (int64_t(1) << 30);
-      if constexpr (D == 3) key = (key << 32) + static_cast<int64_t>(std::floor(f.pos[1][i] / dp)) + (int64_t(1) << 30);
-      columns.insert(key);
+      columns.add(f.pos[0][i], D == 3 ? f.pos[1][i] : real(0));
     }
     real g = 0;
     for (int d = 0; d < D; ++d) g += s.config().gravity[d] * s.config().gravity[d];
     g = g > 0 ? std::sqrt(g) : real(9.81);
-    const real depth = columns.empty() ? dp : n * dp / columns.size();
+    const real depth = columns.size() == 0 ? dp : n * dp / columns.size();
     return std::sqrt(2 * depth / g);
   }
 

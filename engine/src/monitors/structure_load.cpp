@@ -4,7 +4,6 @@
 #include <limits>
 #include <stdexcept>
 #include <unordered_map>
-#include <unordered_set>
 
 #include <Eigen/Geometry>
 
@@ -148,14 +147,12 @@ class StructureLoad final : public Monitor<D> {
       second = floor ? Vec<D>(up_.cross(e).normalized()) : Vec<D>(up_.cross(direction).normalized());
       if (floor) first = up_.cross(second);
     }
-    std::unordered_set<int64_t> cells;
+    CellCount cells(dp);
     const auto& f = s.fluid();
     for (size_t i = 0; i < loading_.size(); ++i) {
       if (!loading_[i]) continue;
       const Vec<D> p = f.position(i);
-      int64_t key = static_cast<int64_t>(std::floor(p.dot(first) / dp)) + (int64_t(1) << 30);
-      if constexpr (D == 3) key = (key << 32) + static_cast<int64_t>(std::floor(p.dot(second) / dp)) + (int64_t(1) << 30);
-      cells.insert(key);
+      cells.add(p.dot(first), D == 3 ? p.dot(second) : real(0));
     }
     return cells.size() * std::pow(dp, D - 1);
   }
