@@ -15,9 +15,8 @@ namespace {
 // Volume an inlet delivers over [0, T]: its speed (piecewise linear in t, speed_at) integrated exactly by
 // trapezoids between the table's times, times the opening.
 template <int D>
-double inlet_volume(const InletSpec<D>& in, double T) {
-  double area = 1;
-  for (int k = 0; k < D - 1; ++k) area *= in.hi[k] - in.lo[k];
+double inlet_volume(const InletSpec<D>& in, double dp, double T) {
+  const double area = in.opening_area(dp);
   std::vector<double> t = {0.0, T};
   for (const auto& row : in.speed)
     if (row[0] > 0 && row[0] < T) t.push_back(row[0]);
@@ -44,10 +43,8 @@ CostFeatures cost_features(const Scene& scene) {
         // Inlets: their buffers work from the start; what they deliver joins the flow linearly on average.
         double buffer = 0, inflow = 0;
         for (const auto& in : setup.inlets) {
-          double opening = 1;
-          for (int k = 0; k < D - 1; ++k) opening *= (in.hi[k] - in.lo[k]) / dp;
-          buffer += opening * inlet_buffer_layers(c);
-          inflow += inlet_volume(in, scene.duration) / std::pow(dp, D);
+          buffer += in.opening_area(dp) / std::pow(dp, D - 1) * inlet_buffer_layers(c);
+          inflow += inlet_volume(in, dp, scene.duration) / std::pow(dp, D);
         }
         f.fluid_mean = f.fluid + buffer + 0.5 * inflow;
 

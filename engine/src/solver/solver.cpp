@@ -31,19 +31,6 @@ long double MassBalance::total_outflow() const { return std::accumulate(outflow.
 long double MassBalance::total_inflow() const { return std::accumulate(inflow.begin(), inflow.end(), 0.0L); }
 
 template <int D>
-real InletSpec<D>::speed_at(real t) const {
-  if (speed.empty()) return 0;
-  if (t <= speed.front()[0]) return speed.front()[1];
-  for (size_t k = 1; k < speed.size(); ++k)
-    if (t < speed[k][0]) {
-      const auto& a = speed[k - 1];
-      const auto& b = speed[k];
-      return a[1] + (b[1] - a[1]) * (t - a[0]) / (b[0] - a[0]);
-    }
-  return speed.back()[1];
-}
-
-template <int D>
 Solver<D>::Solver(SceneSetup<D> setup)
     : impl_(std::make_unique<Impl>()),
       config_(setup.config),
@@ -197,8 +184,6 @@ void Solver<D>::remove_as_outflow(const std::vector<size_t>& indices) {
   sort_and_build_cells();  // removes them now (the next step's sort would too, but a run may end first)
 }
 
-template struct InletSpec<2>;
-template struct InletSpec<3>;
 template struct ParticleArrays<2>;
 template struct ParticleArrays<3>;
 template class Solver<2>;

@@ -25,11 +25,15 @@ void default_domain(const Build<D>& b, SolverConfig& cfg) {
   }
   for (const auto& in : setup.inlets) {
     // The buffer behind the plane is part of the scene.
-    const real back = in.at - in.direction * inlet_buffer_layers(cfg) * b.dp;
-    lo[in.axis] = std::min(lo[in.axis], std::min(back, in.at));
-    hi[in.axis] = std::max(hi[in.axis], std::max(back, in.at));
-    lo[D - 1] = std::min(lo[D - 1], in.lo[D - 2]);
-    hi[D - 1] = std::max(hi[D - 1], in.hi[D - 2]);
+    const real length = inlet_buffer_layers(cfg) * b.dp;
+    for (size_t lane = 0; lane < in.lanes(); ++lane)
+      for (real s : {real(0), -length}) {
+        Vec<D> p = in.origin + s * in.normal + (D == 3 ? (lane + 0.5) * b.dp : 0.0) * in.across;
+        p[D - 1] = in.floor_at(lane, s);
+        lo = lo.cwiseMin(p);
+        p[D - 1] += in.depth;
+        hi = hi.cwiseMax(p);
+      }
   }
   const real margin = 4.0 * cfg.smoothing_length;
   for (int d = 0; d < D; ++d) {

@@ -7,21 +7,26 @@
 namespace runout::scene_reader {
 namespace {
 
-// The opening's extent across the plane; returns its area (whole particles per axis).
+// The opening across the plane (2D: [z]; 3D: the other horizontal axis, then z) as lanes of dp over a flat
+// floor at min's z; returns its area (whole particles per axis).
 template <int D>
-real read_opening(const Fields& f, real dp, InletSpec<D>& in) {
+real read_opening(const Fields& f, real dp, int axis, InletSpec<D>& in) {
   const auto lo = f.vector("min", D - 1), hi = f.vector("max", D - 1);
-  real area = 1;
-  for (int a = 0; a < D - 1; ++a) {
-    in.lo[a] = lo[a];
-    in.hi[a] = hi[a];
-    const real n = std::floor((hi[a] - lo[a]) / dp + 1e-9);
-    if (n < 1)
+  for (int a = 0; a < D - 1; ++a)
+    if (std::floor((hi[a] - lo[a]) / dp + 1e-9) < 1)
       throw SceneError(f.at("max"), "must exceed min by at least dp = " + fmt(dp) + " m on every axis (got " +
                                         fmt(hi[a] - lo[a]) + " m)");
-    area *= n * dp;
+  size_t lanes = 1;
+  if constexpr (D == 3) {
+    const int side = 1 - axis;  // the other horizontal axis
+    in.origin[side] = lo[0];
+    in.across = Vec<D>::Unit(side);
+    lanes = static_cast<size_t>(std::floor((hi[0] - lo[0]) / dp + 1e-9));
   }
-  return area;
+  in.floor.assign(lanes, lo[D - 2]);
+  in.slope.assign(lanes, 0.0);
+  in.depth = hi[D - 2] - lo[D - 2];
+  return in.opening_area(dp);
 }
 
 // speed or discharge: a number, or a hydrograph of [t, value] pairs; discharges become speeds over `area`.
@@ -57,10 +62,10 @@ InletSpec<D> read_inlet(Build<D>& b, const json& j, size_t k, const std::vector<
   if (!b.material_index.count(mat)) throw SceneError(f.at("material"), "no material named '" + mat + "'");
   in.material = b.material_index[mat];
   const std::string dir = f.string("direction", dirs);
-  in.axis = dir[1] == 'x' ? 0 : 1;
-  in.direction = dir[0] == '+' ? 1 : -1;
-  in.at = f.number("at", -1e7, 1e7);
-  const real area = read_opening(f, b.dp, in);
+  const int axis = dir[1] == 'x' ? 0 : 1;
+  in.normal = (dir[0] == '+' ? 1.0 : -1.0) * Vec<D>::Unit(axis);
+  in.origin[axis] = f.number("at", -1e7, 1e7);
+  const real area = read_opening(f, b.dp, axis, in);
   read_speed(f, path, area, in);
   return in;
 }
@@ -78,8 +83,10 @@ void read_inlets(Build<D>& b) {
   for (size_t k = 0; k < ins.size(); ++k) {
     InletSpec<D> in = read_inlet(b, ins[k], k, dirs);
     for (const auto& sp : in.speed) b.inlet_speed_max = std::max(b.inlet_speed_max, sp[1]);
-    b.fluid_top = std::max(b.fluid_top, in.hi[D - 2]);
-    b.fluid_bottom = std::min(b.fluid_bottom, in.lo[D - 2]);
+    for (real z : in.floor) {
+      b.fluid_top = std::max(b.fluid_top, z + in.depth);
+      b.fluid_bottom = std::min(b.fluid_bottom, z);
+    }
     b.setup.inlets.push_back(std::move(in));
   }
 }

@@ -102,23 +102,41 @@ struct ParticleArrays {
   }
 };
 
-// A velocity inlet (an inflow boundary): flow enters across the plane x[axis] = at through a rectangular
-// opening, at a prescribed speed along +/- axis that may vary in time (a hydrograph). Upstream of the plane
-// a buffer of layers of particles moves at that speed, with the hydrostatic density of a free surface at the
-// opening's top; they give the flow beyond the plane full kernel support. A buffer particle that crosses the
-// plane becomes flow and a new one enters at the back of the buffer, so the volume rate is speed x opening
-// area exactly, one particle at a time. Flow that runs back into the buffer is removed (counted as outflow).
+// A velocity inlet (an inflow boundary): flow enters across a vertical plane through an opening of lanes
+// (3D: side by side at spacing dp along `across`; 2D: one), each over its own floor, at a prescribed speed
+// along `normal` that may vary in time (a hydrograph). Upstream of the plane a buffer of layers of particles
+// moves at that speed along its lane's floor, with the hydrostatic density of a free surface `depth` above the
+// floor; they give the flow beyond the plane full kernel support. A buffer particle that crosses the plane
+// becomes flow and a new one enters at the back of the buffer, so the volume rate is the horizontal speed x
+// the opening's area exactly, one particle at a time. Flow that runs back into the buffer is removed (counted
+// as outflow). A flume's inlet has one flat floor; a terrain's follows the ground under each lane.
 template <int D>
 struct InletSpec {
   std::string name;
-  int axis = 0;                  // horizontal axis the flow enters along (0 = x; 1 = y in 3D)
-  int direction = 1;             // +1: towards increasing x[axis]
-  real at = 0;                   // the plane [m]
-  // The opening: bounds of the other coordinates in axis order (2D: z; 3D: the other horizontal, then z).
-  std::array<real, D - 1> lo{}, hi{};
+  Vec<D> normal = Vec<D>::Unit(0);  // unit, horizontal: the way the flow enters
+  Vec<D> origin = Vec<D>::Zero();   // on the plane: where the first lane starts (its height is not used)
+  Vec<D> across = Vec<D>::Zero();   // 3D: unit, horizontal, across `normal`; lane k's centre at (k + 1/2) dp along it
+  std::vector<real> floor;          // per lane: the floor's height where it meets the plane [m]
+  std::vector<real> slope;          // per lane: the floor's rise per metre along `normal` (0: flat)
+  real depth = 0;                   // the opening's height above the floor [m]
   std::vector<std::array<real, 2>> speed;  // (t [s], speed [m/s]) pairs, increasing t; linear between, held after
   uint16_t material = 0;
   real speed_at(real t) const;
+  size_t lanes() const { return floor.size(); }
+  // Signed distance of p downstream of the plane [m].
+  real along(const Vec<D>& p) const { return (p - origin).dot(normal); }
+  // The lane over which p lies (clamped to the opening); 0 in 2D.
+  size_t lane_of(const Vec<D>& p, real dp) const;
+  real floor_at(size_t lane, real s) const { return floor[lane] + slope[lane] * s; }
+  // The buffer's direction of motion over a lane: horizontal speed 1 along `normal`, rising with the floor.
+  Vec<D> motion(size_t lane) const {
+    Vec<D> v = normal;
+    v[D - 1] = slope[lane];
+    return v;
+  }
+  // Particles across the opening: lanes x whole layers of dp in `depth`; the area they stand for [m^(D-1)].
+  int layers_in_depth(real dp) const;
+  real opening_area(real dp) const;
 };
 
 // Layers of an inlet's buffer: enough that a particle at the plane has full kernel support behind it.
@@ -271,7 +289,7 @@ class Solver {
   void create_inlet_buffers();
   void impose_inlet_state();     // buffer particles: the inlet's velocity, hydrostatic density
   void advance_inlets();         // buffer particles past their plane become flow; new ones enter behind
-  real inlet_density(const InletSpec<D>& in, real z) const;
+  real inlet_density(const InletSpec<D>& in, const Vec<D>& p) const;
   bool in_inlet_buffer(const Vec<D>& p) const;
 };
 
