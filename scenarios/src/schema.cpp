@@ -77,13 +77,27 @@ json output_schema() {
 
 json release_schema() {
   const std::string doc = "the release area: polygons, holes allowed (no material in a hole)";
+  const json table = {{"type", "array"},
+                      {"items", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2}, {"maxItems", 2}}}};
+  const json hydrograph = {
+      {"type", "object"},
+      {"description", "flow enters across a line from its uphill side instead of a block (docs/scene-format.md)"},
+      {"properties",
+       {{"line", geometry_schema(2, "the inflow cross-section: a straight line of two points")},
+        {"depth", {{"type", "number"}, {"exclusiveMinimum", 0}, {"maximum", 1000}, {"description", "m above the bed"}}},
+        {"discharge", {{"oneOf", {{{"type", "number"}, {"minimum", 0}}, table}}, {"description", "m3/s, or [t, Q] pairs"}}},
+        {"volume", {{"type", "number"}, {"exclusiveMinimum", 0}, {"description", "m3, with duration: a surge"}}},
+        {"duration", {{"type", "number"}, {"exclusiveMinimum", 0}, {"description", "s"}}}}},
+      {"required", {"line", "depth"}},
+      {"additionalProperties", false}};
   return {{"type", "object"},
           {"properties",
            {{"polygon", geometry_schema(3, doc)},
             {"depth", {{"type", "number"}}},
             {"volume", {{"type", "number"}}},
+            {"hydrograph", hydrograph},
             {"material", {{"type", "string"}}}}},
-          {"required", {"polygon", "material"}},
+          {"required", {"material"}},
           {"additionalProperties", false}};
 }
 

@@ -104,11 +104,40 @@ std::string TerrainModel::misplaced(const Vec<3>& p) const {
   return {};
 }
 
-TerrainModel build_terrain(const TerrainSpec& spec, double dp, long max_particles) {
+namespace {
+
+// A hydrograph release's strip: the rectangle of `inflow_length` on the line's uphill side (the DEM decides
+// which side that is), and the downhill normal.
+Polyline inflow_strip(const ReleaseSpec& release, const Grid& dem, std::array<double, 2>& normal) {
+  const Polyline& line = release.inflow_line;
+  if (line.size() != 2) throw TerrainError("release.hydrograph.line", "must be a straight line of two points");
+  require_inside_dem(dem, line, "release.hydrograph.line", "the inflow line");
+  const double dx = line[1][0] - line[0][0], dy = line[1][1] - line[0][1], len = std::hypot(dx, dy);
+  if (!(len > 0)) throw TerrainError("release.hydrograph.line", "has zero length");
+  const double L = release.inflow_length, nx = -dy / len, ny = dx / len;
+  const double mx = 0.5 * (line[0][0] + line[1][0]), my = 0.5 * (line[0][1] + line[1][1]);
+  const double ahead = dem.sample(mx + L * nx, my + L * ny), behind = dem.sample(mx - L * nx, my - L * ny);
+  if (std::isnan(ahead) || std::isnan(behind) || std::abs(ahead - behind) < 1e-3 * L)
+    throw TerrainError("release.hydrograph.line", "the ground on either side of its midpoint within " + num(L) +
+                                                      " m is missing or level: the downhill side is undefined");
+  const double sign = ahead < behind ? 1.0 : -1.0;
+  normal = {sign * nx, sign * ny};
+  Polyline strip = line;
+  strip.push_back({line[1][0] - L * normal[0], line[1][1] - L * normal[1]});
+  strip.push_back({line[0][0] - L * normal[0], line[0][1] - L * normal[1]});
+  return strip;
+}
+
+}  // namespace
+
+TerrainModel build_terrain(const TerrainSpec& given, double dp, long max_particles) {
   if (!(dp > 0)) throw TerrainError("dp", "must be > 0");
   TerrainModel m;
   m.dp = dp;
-  m.dem = load_dem(spec.dem_path, spec.dem);
+  m.dem = load_dem(given.dem_path, given.dem);
+  TerrainSpec spec = given;
+  const bool inflow = !spec.release.inflow_line.empty();
+  if (inflow) spec.release.polygon = inflow_strip(spec.release, m.dem, m.inflow_normal);
   const double release_area = check_inputs(spec, m.dem);
   const std::vector<detail::Footprint> feet = detail::footprints(spec, m.dem, dp);
 
@@ -127,8 +156,13 @@ TerrainModel build_terrain(const TerrainSpec& spec, double dp, long max_particle
   detail::build_walls(m, spec, feet, owner);
   detail::storage_capacities(m, spec, feet, owner);
 
-  detail::lay_boundary_particles(m, spec.layers, release_cols.size(), release_depth, max_particles);
-  detail::fill_release(m, spec.release, release_cols);
+  detail::lay_boundary_particles(m, spec.layers, inflow ? 0 : release_cols.size(), release_depth, max_particles);
+  if (inflow) {
+    m.inflow_line = spec.release.inflow_line;
+    m.release_depth = spec.release.depth;  // the inflow's; no particles are placed
+  } else {
+    detail::fill_release(m, spec.release, release_cols);
+  }
   m.release_polygon = spec.release.polygon;
   m.protected_zones = spec.protected_zones;
   return m;

@@ -3,6 +3,7 @@
 #include "readers.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace runout::scene_reader {
 namespace {
@@ -70,10 +71,74 @@ InletSpec<D> read_inlet(Build<D>& b, const json& j, size_t k, const std::vector<
   return in;
 }
 
+// A terrain's hydrograph release as an inlet: lanes of dp along the line, each over the bed. The floor of a
+// lane is the secant of the bed over the strip behind the line, raised where the bed rises above it, so the
+// buffer never runs through the ground (it may float a little over a hollow, as a surge does).
+template <int D>
+InletSpec<D> terrain_inlet(const Build<D>& b) {
+  const auto& tm = *b.tmodel;
+  const Fields r(b.j.at("release"), "release", kReleaseKeys);
+  const Fields h(r.raw("hydrograph"), "release.hydrograph", {"line", "depth", "discharge", "volume", "duration"});
+  InletSpec<D> in;
+  in.name = "release";
+  in.material = b.material_index.at(b.release_material);
+  const auto& line = tm.inflow_line;
+  const real length = std::hypot(line[1][0] - line[0][0], line[1][1] - line[0][1]);
+  const size_t lanes = static_cast<size_t>(std::floor(length / b.dp + 1e-6));  // map coordinates: ~1e-9 m rounding
+  if (lanes < 1) throw SceneError(h.at("line"), "must be at least dp = " + fmt(b.dp) + " m long");
+  in.normal = Vec<D>::Zero();
+  in.normal[0] = tm.inflow_normal[0];
+  in.normal[1] = tm.inflow_normal[1];
+  in.origin = Vec<D>::Zero();
+  in.origin[0] = line[0][0] - tm.origin_x;
+  in.origin[1] = line[0][1] - tm.origin_y;
+  in.across = Vec<D>::Zero();
+  in.across[0] = (line[1][0] - line[0][0]) / length;
+  in.across[1] = (line[1][1] - line[0][1]) / length;
+  in.depth = h.number("depth", 0.0, 1000.0, true);
+  const real strip = kInflowStripLayers * b.dp;
+  for (size_t k = 0; k < lanes; ++k) {
+    const Vec<D> front = in.origin + (k + 0.5) * b.dp * in.across;
+    auto bed = [&](real s) {
+      const Vec<D> p = front + s * in.normal;
+      return tm.bed_at(p[0], p[1]);
+    };
+    const real z0 = bed(0), zb = bed(-strip);
+    if (std::isnan(z0) || std::isnan(zb))
+      throw SceneError(h.at("line"), "lane " + std::to_string(k) + " of the inflow has no bed under it or behind it");
+    const real slope = (z0 - zb) / strip;
+    real lift = 0;
+    for (real s = -strip; s <= 0; s += 0.5 * b.dp) {
+      const real z = bed(s);
+      if (!std::isnan(z)) lift = std::max(lift, z - (z0 + slope * s));
+    }
+    in.floor.push_back(z0 + lift);
+    in.slope.push_back(slope);
+  }
+  const real area = in.opening_area(b.dp);
+  if (!(area > 0)) throw SceneError(h.at("depth"), "must be at least dp = " + fmt(b.dp) + " m");
+  if (h.has("discharge") == (h.has("volume") || h.has("duration")) || h.has("volume") != h.has("duration"))
+    throw SceneError("release.hydrograph",
+                     "give either discharge ([[t, Q], ...] in m3/s) or volume (m3) with duration (s)");
+  if (h.has("discharge")) {
+    read_speed(h, "release.hydrograph", area, in);
+  } else {
+    // A surge: the peak at once, falling linearly to nothing at `duration`, its integral the volume.
+    const real volume = h.number("volume", 0.0, 1e9, true), duration = h.number("duration", 0.0, 1e6, true);
+    in.speed = {{0.0, 2 * volume / duration / area}, {duration, 0.0}};
+  }
+  return in;
+}
+
 }  // namespace
 
 template <int D>
 void read_inlets(Build<D>& b) {
+  if (b.tmodel && !b.tmodel->inflow_line.empty()) {
+    InletSpec<D> in = terrain_inlet(b);
+    for (const auto& sp : in.speed) b.inlet_speed_max = std::max(b.inlet_speed_max, sp[1]);
+    b.setup.inlets.push_back(std::move(in));
+  }
   if (!b.top.has("inlets")) return;
   if (b.tmodel) throw SceneError("inlets", "inlets are for scenes without terrain (flumes, channels) in this version");
   const json& ins = b.top.raw("inlets");

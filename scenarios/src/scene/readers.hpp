@@ -227,6 +227,10 @@ template <int D>
 void read_depth_gauge(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec);
 
 // The terrain, release, structures and protected_zones sections (docs/scene-format.md, "Terrain scenes").
+inline const std::set<std::string> kReleaseKeys{"polygon", "depth", "volume", "material", "hydrograph"};
+// A hydrograph release's strip behind its line, in dp: it holds the inlet's buffer (ceil(2h/dp) + 1 layers,
+// at most 8 for the accepted smoothing ratios) and is what the floor under each lane is fitted over.
+constexpr int kInflowStripLayers = 8;
 terrain::TerrainSpec parse_terrain_spec(const json& j, const std::filesystem::path& base_dir);
 
 // The top-level keys of a scene.

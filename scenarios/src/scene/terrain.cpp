@@ -44,8 +44,17 @@ void read_terrain_section(const json& j, const std::filesystem::path& base_dir, 
 }
 
 void read_release(const json& j, terrain::ReleaseSpec& release, const ShapeSource& src) {
-  if (!j.contains("release")) throw SceneError("release", "missing (required in a terrain scene: polygon, depth or volume, material)");
-  Fields r(j.at("release"), "release", {"polygon", "depth", "volume", "material"});
+  if (!j.contains("release"))
+    throw SceneError("release", "missing (required in a terrain scene: polygon, depth or volume, material; or a hydrograph)");
+  Fields r(j.at("release"), "release", kReleaseKeys);
+  if (r.has("hydrograph")) {
+    if (r.has("polygon") || r.has("depth") || r.has("volume"))
+      throw SceneError("release", "give either a hydrograph or a polygon with depth or volume, not both");
+    Fields h(r.raw("hydrograph"), "release.hydrograph", {"line", "depth", "discharge", "volume", "duration"});
+    release.inflow_line = read_shape(h.raw("line"), h.at("line"), 2, ShapeKind::line, src);
+    release.depth = h.number("depth", 0.0, 1000.0, true);
+    return;
+  }
   release.polygon = read_shape(r.raw("polygon"), r.at("polygon"), 3, ShapeKind::multipolygon, src);
   if (r.has("depth") == r.has("volume"))
     throw SceneError("release", "give exactly one of depth (m, in (0, 1000]) or volume (m3, in (0, 1e9])");
@@ -171,15 +180,17 @@ terrain::TerrainSpec parse_terrain_spec(const json& j, const std::filesystem::pa
   return spec;
 }
 
-// Terrain: built first (it validates the DEM, release and structures), its release joins the fluid.
+// Terrain: built first (it validates the DEM, release and structures), its release joins the fluid (a
+// hydrograph release becomes an inlet: inlets.cpp).
 template <int D>
 void read_terrain(Build<D>& b) {
   for (const char* key : {"release", "structures", "protected_zones"})
     if (b.top.has(key) && !b.top.has("terrain")) throw SceneError(key, "needs a terrain section");
   if (!b.top.has("terrain")) return;
   if (D != 3) throw SceneError("dimensions", "a terrain scene must have dimensions = 3");
-  const terrain::TerrainSpec spec = parse_terrain_spec(b.j, b.base_dir);
-  b.release_material = Fields(b.j.at("release"), "release", {"polygon", "depth", "volume", "material"}).string("material");
+  terrain::TerrainSpec spec = parse_terrain_spec(b.j, b.base_dir);
+  spec.release.inflow_length = kInflowStripLayers * b.dp;
+  b.release_material = Fields(b.j.at("release"), "release", kReleaseKeys).string("material");
   if (!b.material_index.count(b.release_material))
     throw SceneError("release.material", "no material named '" + b.release_material + "'");
   const Fields t(b.j.at("terrain"), "terrain", {}, true);

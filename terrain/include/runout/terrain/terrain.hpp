@@ -40,6 +40,11 @@ struct ReleaseSpec {
   Polyline polygon;
   double depth = 0.0;   // one of depth or volume is > 0
   double volume = 0.0;
+  // A hydrograph release instead of a block: flow enters `depth` deep across this straight line (two points)
+  // from its uphill side, and no particles are placed. build_terrain then takes as the polygon the strip of
+  // `inflow_length` behind the line (where the inlet's buffer runs), which seeds the corridor's reach.
+  Polyline inflow_line;
+  double inflow_length = 0.0;
 };
 
 enum class StructureKind { check_dam, deposition_area, retention_basin };
@@ -123,6 +128,10 @@ struct TerrainModel {
   std::vector<ProtectedZone> protected_zones;
   Polyline release_polygon;
   double release_volume = 0.0;     // [m3] of the particles placed
+  // A hydrograph release: its line (map coordinates) and the horizontal unit vector it lets the flow in
+  // along (map axes, downhill); empty line for a block release.
+  Polyline inflow_line;
+  std::array<double, 2> inflow_normal{0.0, 0.0};
   double release_depth = 0.0;      // [m]
   // Largest height of the energy line above the ground over the reach (at least the release depth): the
   // sliding-block speed scale sqrt(2 g E) the default speed of sound is built on.
