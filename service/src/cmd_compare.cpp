@@ -1,6 +1,7 @@
 // `runout compare`: the decision metrics (or every stored metric) of runs against a baseline, in per cent, as a
 // table, CSV or JSON.
 #include <algorithm>
+#include <charconv>
 #include <cstdio>
 #include <map>
 
@@ -15,7 +16,7 @@
 namespace runout::cli {
 namespace {
 
-using json = nlohmann::json;
+using json = nlohmann::ordered_json;  // keys in the order written: metric, decision, baseline, values, percent
 
 std::string fmt_value(double v) {
   char buf[32];
@@ -178,7 +179,13 @@ int compare(const CompareArgs& a) {
       if (!sweep_runs(store, a, base, runs)) return 2;
     } else {
       base = runs.front();
-      if (!a.baseline.empty()) base = std::stoll(a.baseline);
+      if (!a.baseline.empty()) {
+        const char* end = a.baseline.data() + a.baseline.size();
+        if (std::from_chars(a.baseline.data(), end, base).ptr != end) {
+          spdlog::error("compare: --baseline '{}' must be a run id with --runs", a.baseline);
+          return 2;
+        }
+      }
       runs.erase(std::remove(runs.begin(), runs.end(), base), runs.end());
     }
     const Comparison c = compare_runs(store, runs, base);

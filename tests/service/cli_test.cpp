@@ -297,6 +297,11 @@ TEST_F(CliCompare, JsonHasTheDecisionMetricsFirst) {
           << r.dump();
     }
   }
+  // --baseline with --runs is a run id; the second run as the baseline swaps the columns.
+  ASSERT_EQ(run_split("compare --runs 1 2 --baseline 2 --format json --db " + q(db_)), 0) << output();
+  EXPECT_EQ(json::parse(standard_output()).at("baseline"), "#2");
+  EXPECT_EQ(run_split("compare --runs 1 2 --baseline C0 --db " + q(db_)), 2);
+  EXPECT_NE(output().find("--baseline 'C0' must be a run id"), std::string::npos) << output();
   // Without --all: the decision metrics alone.
   ASSERT_EQ(run_split("compare --runs 1 2 --format json --db " + q(db_)), 0) << output();
   EXPECT_EQ(json::parse(standard_output()).at("rows").size(), 4u);
