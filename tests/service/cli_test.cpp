@@ -17,8 +17,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "runout/scenarios/store.hpp"
+
 namespace fs = std::filesystem;
 using json = nlohmann::json;
+using runout::RunStore;
 
 namespace {
 
@@ -246,6 +249,15 @@ TEST_F(Cli, RunAtAnExplicitDpRunsAndStoresAtThatDp) {
   const json m = json::parse(in);
   EXPECT_DOUBLE_EQ(m.at("settings").at("dp_m").get<double>(), 0.05);  // the scene says 0.01
   // Stored as a sweep stores a run at an explicit dp: fidelity "custom", the resolved dp in the manifest.
+  {
+    const RunStore store(db);
+    const auto row = store.get_run(1);
+    ASSERT_TRUE(row);
+    EXPECT_EQ(row->fidelity, "custom");
+    const json manifest = json::parse(store.manifest_json(1));
+    EXPECT_EQ(manifest.at("fidelity"), "custom");
+    EXPECT_DOUBLE_EQ(manifest.at("scene").at("dp").get<double>(), 0.05);
+  }
   ASSERT_EQ(run_split("compare --runs 1 --all --format json --filter settings.dp_m --db " + q(db)), 0) << output();
   const json c = json::parse(standard_output());
   ASSERT_EQ(c.at("rows").size(), 1u) << c.dump();
@@ -253,6 +265,22 @@ TEST_F(Cli, RunAtAnExplicitDpRunsAndStoresAtThatDp) {
   // The same scene and dp again is the same run (one manifest): it is not stored twice.
   ASSERT_EQ(run("run " + q(scene) + " --dp 0.05 --out " + q(out) + " --db " + q(db) + " --threads 1 --quiet"), 0);
   EXPECT_NE(output().find("stored as run 1 "), std::string::npos) << output();
+}
+
+TEST_F(Cli, RunAtAFidelityTakesTheScenesDefaultLadder) {
+  // No presets in the scene: draft is twice its dp (0.02 m), as a sweep's layout would be.
+  const fs::path scene = write("good.json", good_scene().dump());
+  const fs::path out = dir_ / "out", db = dir_ / "runs.db";
+  ASSERT_EQ(run("run " + q(scene) + " --fidelity draft --out " + q(out) + " --db " + q(db) + " --threads 1 --quiet"), 0)
+      << output();
+  std::ifstream in(out / "metrics.json");
+  EXPECT_DOUBLE_EQ(json::parse(in).at("settings").at("dp_m").get<double>(), 0.04);
+  const RunStore store(db);
+  EXPECT_EQ(store.get_run(1)->fidelity, "draft");
+  EXPECT_EQ(json::parse(store.manifest_json(1)).at("fidelity"), "draft");
+  // As written, the same scene is another run (fidelity "scene"), not the draft one reused.
+  ASSERT_EQ(run("run " + q(scene) + " --out " + q(dir_ / "as-written") + " --db " + q(db) + " --threads 1 --quiet"), 0);
+  EXPECT_NE(output().find("stored as run 2 "), std::string::npos) << output();
 }
 
 class CliCompare : public Cli {
