@@ -9,7 +9,7 @@ packages=(
   libgdal-dev gdal-bin
   libcpp-httplib-dev
   libsqlite3-dev sqlite3 libssl-dev
-  libgtest-dev libgmock-dev libbenchmark-dev
+  libgtest-dev  # GoogleTest only: no test uses gmock, and bench/ times with its own loops, not Google Benchmark
   nlohmann-json3-dev libcli11-dev libspdlog-dev
   python-matplotlib-data
   chromium

@@ -42,6 +42,27 @@ void layer_files(const json& j, std::set<std::string>& out) {
     for (const auto& v : j) layer_files(v, out);
 }
 
+// Fidelity: explicit dp, the scene's preset, or the default ladder around the scene's dp; the preset's
+// numerics applied and "fidelity" removed.
+void apply_fidelity(json& j, const Fidelity& fidelity) {
+  const double base_dp = j.value("dp", 0.0);
+  json preset = json::object();
+  if (j.contains("fidelity") && j["fidelity"].is_object() && j["fidelity"].contains(fidelity.name))
+    preset = j["fidelity"][fidelity.name];
+  j.erase("fidelity");
+  if (fidelity.dp) {
+    j["dp"] = *fidelity.dp;
+  } else if (preset.contains("dp")) {
+    j["dp"] = preset["dp"];
+  } else if (fidelity.name == "draft") {
+    j["dp"] = 2.0 * base_dp;
+  } else if (fidelity.name == "fine") {
+    j["dp"] = 0.5 * base_dp;
+  }
+  if (preset.contains("numerics") && preset["numerics"].is_object())
+    for (auto it = preset["numerics"].begin(); it != preset["numerics"].end(); ++it) j["numerics"][it.key()] = it.value();
+}
+
 }  // namespace
 
 const std::vector<std::string>& fidelity_names() {
@@ -193,24 +214,20 @@ std::string resolve_variant(const std::string& base_json, const SweepVariant& va
     }
     j["monitors"] = ms;
   }
-  // Fidelity: explicit dp, the scene's preset, or the default ladder around the scene's dp.
-  const double base_dp = j.value("dp", 0.0);
-  json preset = json::object();
-  if (j.contains("fidelity") && j["fidelity"].is_object() && j["fidelity"].contains(fidelity.name))
-    preset = j["fidelity"][fidelity.name];
-  j.erase("fidelity");
-  if (fidelity.dp) {
-    j["dp"] = *fidelity.dp;
-  } else if (preset.contains("dp")) {
-    j["dp"] = preset["dp"];
-  } else if (fidelity.name == "draft") {
-    j["dp"] = 2.0 * base_dp;
-  } else if (fidelity.name == "fine") {
-    j["dp"] = 0.5 * base_dp;
-  }
-  if (preset.contains("numerics") && preset["numerics"].is_object())
-    for (auto it = preset["numerics"].begin(); it != preset["numerics"].end(); ++it) j["numerics"][it.key()] = it.value();
+  apply_fidelity(j, fidelity);
   j["name"] = j.value("name", std::string("scene")) + "/" + variant.name;
+  return j.dump();
+}
+
+std::string resolve_scene(const std::string& scene_json, const Fidelity& fidelity) {
+  json j;
+  try {
+    j = json::parse(scene_json);
+  } catch (const json::exception& e) {
+    throw SceneError("(json)", std::string("malformed JSON: ") + e.what());
+  }
+  if (!j.is_object()) throw SceneError("(root)", "a scene must be a JSON object");
+  apply_fidelity(j, fidelity);
   return j.dump();
 }
 

@@ -90,6 +90,7 @@ Action add_calibrate(CLI::App& app) {
   auto c = std::make_shared<CalibrateArgs>();
   auto* cmd = app.add_subcommand("calibrate", "Fit the cost model to the completed runs of a store; print "
                                               "predicted against measured run times");
+  cmd->footer("Example (after runout sweep scenarios/flume/c0_c7.json):\n  runout calibrate --db runout.db --sweep flume");
   cmd->add_option("--db", c->dbs, "Run store (SQLite); repeat to fit the runs of several")->capture_default_str();
   cmd->add_option("--sweep", c->sweep_prefix, "Only runs whose sweep name starts with this");
   cmd->add_option("--json", c->json_out, "Write the fitted coefficients to this file");

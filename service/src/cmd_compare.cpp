@@ -1,16 +1,22 @@
-// `runout compare`: every stored metric of runs against a baseline, in per cent.
+// `runout compare`: the decision metrics (or every stored metric) of runs against a baseline, in per cent, as a
+// table, CSV or JSON.
 #include <algorithm>
+#include <charconv>
 #include <cstdio>
 #include <map>
 
+#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
+#include "runout/scenarios/decision_metrics.hpp"
 #include "runout/scenarios/store.hpp"
 #include "runout/scenarios/study.hpp"
 
 namespace runout::cli {
 namespace {
+
+using json = nlohmann::ordered_json;  // keys in the order written: metric, decision, baseline, values, percent
 
 std::string fmt_value(double v) {
   char buf[32];
@@ -18,14 +24,40 @@ std::string fmt_value(double v) {
   return buf;
 }
 
-// The table's cells: a row per metric that differs between the runs (all of them with `all`).
-std::vector<std::vector<std::string>> comparison_rows(const Comparison& c, const std::string& filter, bool all) {
-  std::vector<std::vector<std::string>> rows;
-  for (const auto& row : c.rows) {
-    if (!filter.empty() && row.metric.find(filter) == std::string::npos) continue;
+// The rows shown, in order: the decision metrics by rank (decision_metrics.hpp), then with `all` the rest by
+// name; `filter` keeps names containing it, `differing` drops rows equal in every run. The outlet is found
+// among every row, not only the filtered ones.
+struct ShownRow {
+  const Comparison::Row* row;
+  bool decision;
+};
+std::vector<ShownRow> shown_rows(const Comparison& c, const CompareArgs& a) {
+  std::vector<std::string> names;
+  std::map<std::string, const Comparison::Row*> by_name;
+  for (const auto& row : c.rows) names.push_back(row.metric), by_name[row.metric] = &row;
+  const DecisionMetrics decision(names);
+  std::vector<std::string> kept;
+  for (const auto& n : names)
+    if (a.filter.empty() || n.find(a.filter) != std::string::npos) kept.push_back(n);
+  std::vector<ShownRow> out;
+  for (const auto& n : decision.order(kept, a.all)) {
+    const Comparison::Row* row = by_name.at(n);
     bool differs = false;
-    for (const auto& v : row.values) differs = differs || v != row.baseline;
-    if (!all && !differs) continue;  // the same in every run (settings, particle counts): not a difference
+    for (const auto& v : row->values) differs = differs || v != row->baseline;
+    if (a.differing && !differs) continue;  // the same in every run (settings, particle counts)
+    out.push_back({row, decision.is_decision(n)});
+  }
+  return out;
+}
+
+// A table of the rows against the baseline, with differences in per cent; a blank line after the decision
+// metrics when others follow.
+void print_table(const Comparison& c, const std::vector<ShownRow>& shown) {
+  std::vector<std::string> header{"metric", c.baseline + " (base)"};
+  for (const auto& r : c.runs) header.push_back(r);
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& s : shown) {
+    const auto& row = *s.row;
     std::vector<std::string> cells{row.metric, row.baseline ? fmt_value(*row.baseline) : "-"};
     for (size_t k = 0; k < row.values.size(); ++k) {
       std::string cell = row.values[k] ? fmt_value(*row.values[k]) : "-";
@@ -38,26 +70,72 @@ std::vector<std::vector<std::string>> comparison_rows(const Comparison& c, const
     }
     rows.push_back(cells);
   }
-  return rows;
-}
-
-// A table of every stored metric of the runs against the baseline, with differences in per cent.
-void print_comparison(const Comparison& c, const std::string& filter, bool all) {
-  std::vector<std::string> header{"metric", c.baseline + " (base)"};
-  for (const auto& r : c.runs) header.push_back(r);
-  const auto rows = comparison_rows(c, filter, all);
   std::vector<size_t> width(header.size());
   for (size_t k = 0; k < header.size(); ++k) width[k] = header[k].size();
   for (const auto& r : rows)
     for (size_t k = 0; k < r.size(); ++k) width[k] = std::max(width[k], r[k].size());
   auto line = [&](const std::vector<std::string>& cells) {
-    for (size_t k = 0; k < cells.size(); ++k) {
-      std::printf(k == 0 ? "%-*s" : "  %*s", static_cast<int>(width[k]), cells[k].c_str());
-    }
+    for (size_t k = 0; k < cells.size(); ++k) std::printf(k == 0 ? "%-*s" : "  %*s", static_cast<int>(width[k]), cells[k].c_str());
     std::printf("\n");
   };
   line(header);
-  for (const auto& r : rows) line(r);
+  for (size_t k = 0; k < rows.size(); ++k) {
+    if (k > 0 && shown[k - 1].decision && !shown[k].decision) std::printf("\n");
+    line(rows[k]);
+  }
+}
+
+// A value as JSON writes it (shortest text that reads back the same double), or null.
+json value_or_null(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
+
+// One CSV field, quoted when it holds a separator, a quote or a line break (RFC 4180).
+// (Built with push_back/append: GCC 12 warns falsely (-Wrestrict) on "\"" + string.)
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\r\n") == std::string::npos) return s;
+  std::string q(1, '"');
+  for (char ch : s) {
+    q.push_back(ch);
+    if (ch == '"') q.push_back('"');
+  }
+  q.push_back('"');
+  return q;
+}
+
+// metric, decision (1/0), the baseline's value, then each run's value and its difference in per cent; an
+// empty field where a value is missing. Numbers in full precision.
+void print_csv(const Comparison& c, const std::vector<ShownRow>& shown) {
+  auto num = [](const std::optional<double>& v) { return v ? json(*v).dump() : std::string(); };
+  std::string line = "metric,decision,";
+  line.append(csv_field(c.baseline + " (baseline)"));
+  for (const auto& r : c.runs) line.append(",").append(csv_field(r)).append(",").append(csv_field(r + " %"));
+  std::printf("%s\n", line.c_str());
+  for (const auto& s : shown) {
+    line = csv_field(s.row->metric);
+    line.append(s.decision ? ",1," : ",0,").append(num(s.row->baseline));
+    for (size_t k = 0; k < s.row->values.size(); ++k)
+      line.append(",").append(num(s.row->values[k])).append(",").append(num(s.row->percent[k]));
+    std::printf("%s\n", line.c_str());
+  }
+}
+
+// {baseline, baseline_id, runs, run_ids, outlet, rows: [{metric, decision, baseline, values[], percent[]}]}.
+void print_json(const Comparison& c, int64_t base, const std::vector<ShownRow>& shown) {
+  std::vector<std::string> names;
+  for (const auto& row : c.rows) names.push_back(row.metric);
+  json out = {{"baseline", c.baseline}, {"baseline_id", base},  {"runs", c.runs},
+              {"run_ids", c.run_ids},   {"outlet", nullptr},    {"rows", json::array()}};
+  if (const DecisionMetrics d(names); !d.outlet().empty()) out["outlet"] = d.outlet();
+  for (const auto& s : shown) {
+    json values = json::array(), percent = json::array();
+    for (size_t k = 0; k < s.row->values.size(); ++k)
+      values.push_back(value_or_null(s.row->values[k])), percent.push_back(value_or_null(s.row->percent[k]));
+    out["rows"].push_back({{"metric", s.row->metric},
+                           {"decision", s.decision},
+                           {"baseline", value_or_null(s.row->baseline)},
+                           {"values", values},
+                           {"percent", percent}});
+  }
+  std::printf("%s\n", out.dump(2).c_str());
 }
 
 // The latest completed run of each variant of the sweep, the baseline's first; false (logged) when there is
@@ -101,10 +179,23 @@ int compare(const CompareArgs& a) {
       if (!sweep_runs(store, a, base, runs)) return 2;
     } else {
       base = runs.front();
-      if (!a.baseline.empty()) base = std::stoll(a.baseline);
+      if (!a.baseline.empty()) {
+        const char* end = a.baseline.data() + a.baseline.size();
+        if (std::from_chars(a.baseline.data(), end, base).ptr != end) {
+          spdlog::error("compare: --baseline '{}' must be a run id with --runs", a.baseline);
+          return 2;
+        }
+      }
       runs.erase(std::remove(runs.begin(), runs.end(), base), runs.end());
     }
-    print_comparison(compare_runs(store, runs, base), a.filter, a.all);
+    const Comparison c = compare_runs(store, runs, base);
+    const auto shown = shown_rows(c, a);
+    if (!a.all && shown.empty())  // on stderr: csv and json stay parseable
+      spdlog::info("compare: no decision metric{} in these runs; --all lists every stored metric",
+                   a.filter.empty() ? "" : " matching --filter");
+    if (a.format == "csv") print_csv(c, shown);
+    else if (a.format == "json") print_json(c, base, shown);
+    else print_table(c, shown);
   } catch (const std::exception& e) {
     spdlog::error("compare: {}", e.what());
     return 2;
@@ -114,12 +205,19 @@ int compare(const CompareArgs& a) {
 
 Action add_compare(CLI::App& app) {
   auto a = std::make_shared<CompareArgs>();
-  auto* cmd = app.add_subcommand("compare", "Print every stored metric of runs against a baseline, in per cent");
+  auto* cmd = app.add_subcommand(
+      "compare", "Print the decision metrics (or every stored metric) of runs against a baseline, in per cent");
+  cmd->footer("Example (after runout sweep scenarios/flume/c0_c7.json --fidelity draft):\n"
+              "  runout compare --sweep flume-C0-C7 --format csv > c0_c7.csv");
   cmd->add_option("--sweep", a->sweep, "Compare the latest completed run of each variant of this sweep");
   cmd->add_option("--baseline", a->baseline, "Baseline variant (default: the first by name, C0 / G0) or run id");
   cmd->add_option("--runs", a->ids, "Run ids instead of a sweep (the first is the baseline)");
+  cmd->add_option("--format", a->format, "table | csv | json")
+      ->check(CLI::IsMember({"table", "csv", "json"}))
+      ->capture_default_str();
+  cmd->add_flag("--all", a->all, "Every stored metric: the decision metrics first, then the rest by name");
+  cmd->add_flag("--differing", a->differing, "Only rows whose value is not the same in every run");
   cmd->add_option("--filter", a->filter, "Only metrics whose name contains this");
-  cmd->add_flag("--all", a->all, "Also rows that are the same in every run");
   cmd->add_option("--db", a->db, "Run store (SQLite)")->capture_default_str();
   return [a](const char*) { return compare(*a); };
 }

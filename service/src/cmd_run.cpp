@@ -17,20 +17,39 @@ namespace {
 
 struct RunArgs {
   std::string scene_path, out_dir, db = "runout.db";
+  FidelityArgs fidelity;
   bool snapshots = false, quiet = false, no_db = false;
   int threads = 0;
 };
 
-// A failure to store is logged, not fatal: the outputs are on disk.
-void store_run(RunStore& store, const RunArgs& a, const Scene& scene, const RunSummary& s,
+// The scene that runs: as written, or resolved at --fidelity / --dp as a sweep resolves its layouts.
+struct ResolvedScene {
+  std::string json;   // what the manifest hashes
+  Fidelity fidelity;  // "scene" (as written: no preset applied), a preset, or "custom" (--dp)
+  Scene scene;
+};
+
+// Throws SceneError (exit 2) for an unreadable or refused scene.
+ResolvedScene resolve(const RunArgs& a) {
+  ResolvedScene r;
+  r.json = read_text(a.scene_path);
+  r.fidelity.name = "scene";
+  if (const auto f = a.fidelity.chosen()) {
+    r.fidelity = *f;
+    r.json = resolve_scene(r.json, r.fidelity);
+  }
+  r.scene = parse_scene(r.json, std::filesystem::path(a.scene_path).parent_path());
+  return r;
+}
+
+// A failure to store is logged, not fatal: the outputs are on disk. Recorded as a sweep records its runs
+// (execute_run): the manifest of the resolved scene and its fidelity, "custom" for an explicit dp.
+void store_run(RunStore& store, const RunArgs& a, const ResolvedScene& r, const RunSummary& s,
                const std::filesystem::path& out) {
-  // The scene as written is the run's identity (fidelity "scene": no preset applied).
-  Fidelity as_written;
-  as_written.name = "scene";
   try {
-    const auto manifest =
-        make_manifest(read_text(a.scene_path), std::filesystem::path(a.scene_path).parent_path(), as_written);
-    const int64_t id = store.put_run(run_record(manifest, scene.name, as_written.name, s, out));
+    const auto manifest = make_manifest(r.json, std::filesystem::path(a.scene_path).parent_path(), r.fidelity);
+    const std::string fidelity = r.fidelity.dp ? "custom" : r.fidelity.name;
+    const int64_t id = store.put_run(run_record(manifest, r.scene.name, fidelity, s, out));
     spdlog::info("stored as run {} in {}", id, a.db);
   } catch (const std::exception& e) {
     spdlog::error("could not store the run: {}", e.what());
@@ -38,9 +57,9 @@ void store_run(RunStore& store, const RunArgs& a, const Scene& scene, const RunS
 }
 
 int run(const RunArgs& a) {
-  Scene scene;
+  ResolvedScene resolved;
   try {
-    scene = load_scene(a.scene_path);
+    resolved = resolve(a);
   } catch (const SceneError& e) {
     spdlog::error("scene refused: {}", e.what());
     return 2;
@@ -54,6 +73,7 @@ int run(const RunArgs& a) {
       return 2;
     }
   }
+  const Scene& scene = resolved.scene;
   const std::filesystem::path out =
       a.out_dir.empty() ? std::filesystem::path("runs") / scene.name : std::filesystem::path(a.out_dir);
   stop_on_signals();
@@ -73,7 +93,7 @@ int run(const RunArgs& a) {
     return 1;
   }
   bar.finish();
-  if (store) store_run(*store, a, scene, s, out);
+  if (store) store_run(*store, a, resolved, s, out);
   if (s.status == "failed") {
     spdlog::error("run failed: {}", s.error);
     spdlog::info("partial metrics in {}", (out / "metrics.json").string());
@@ -90,8 +110,10 @@ int run(const RunArgs& a) {
 Action add_run(CLI::App& app) {
   auto a = std::make_shared<RunArgs>();
   auto* run_cmd = app.add_subcommand("run", "Run one scene and write metrics.json, series/ and snapshots/");
+  run_cmd->footer("Example:\n  runout run scenarios/validation/dam_break_2d.json --dp 0.02 --out runs/dam-break-2d");
   run_cmd->add_option("scene", a->scene_path, "Scene file (JSON)")->required();  // unreadable: refused by load_scene (2)
   run_cmd->add_option("--out,-o", a->out_dir, "Output directory (default runs/<scene name>)");
+  a->fidelity.add_to(run_cmd, "the scene as written");
   run_cmd->add_flag("--snapshots", a->snapshots, "Write particle snapshots (.vtp) under OUT/snapshots/");
   run_cmd->add_option("--threads,-j", a->threads, "OpenMP threads (default: all cores)")->check(CLI::Range(0, 1024));
   run_cmd->add_flag("--quiet,-q", a->quiet, "No progress bar");

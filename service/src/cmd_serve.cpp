@@ -131,6 +131,7 @@ Action add_serve(CLI::App& app) {
   auto a = std::make_shared<ServeArgs>();
   auto& o = a->opt;
   auto* cmd = app.add_subcommand("serve", "Run the HTTP service: a job queue and the run store over a JSON API");
+  cmd->footer("Example (then open http://127.0.0.1:8080/):\n  runout serve --port 8080 --db runout.db --workers 1 --scene-dir scenarios/flume");
   cmd->add_option("--host", o.host, "Address to bind (loopback by default)")->capture_default_str();
   bounded(cmd, "--port", o.port, "Port (0: any free port, printed on stdout)", 0, 65535);
   cmd->add_option("--db", a->db, "Run store and job queue (SQLite)")->capture_default_str();

@@ -19,8 +19,9 @@ namespace runout::cli {
 namespace {
 
 struct SweepArgs {
-  std::string path, fidelity, db = "runout.db", out = "runs";
-  double dp = 0, heartbeat_timeout = 60;
+  std::string path, db = "runout.db", out = "runs";
+  FidelityArgs fidelity;
+  double heartbeat_timeout = 60;
   int jobs = 1, threads = 0;
   bool no_compare = false;
 };
@@ -81,10 +82,9 @@ class Ranks {
 // The sweep file, its variants checked at the fidelity that will run; false (logged) if refused.
 bool load(const SweepArgs& a, Sweep& sweep, SweepOptions& opt) {
   try {
-    if (!a.fidelity.empty() || a.dp > 0) {
+    if (const auto f = a.fidelity.chosen()) {
       opt.fidelity_override = true;
-      opt.fidelity.name = a.fidelity.empty() ? "custom" : a.fidelity;
-      if (a.dp > 0) opt.fidelity.dp = a.dp;
+      opt.fidelity = *f;
     }
     sweep = load_sweep(a.path);
     if (opt.fidelity_override)
@@ -175,10 +175,9 @@ int sweep(const SweepArgs& a) {
 Action add_sweep(CLI::App& app) {
   auto a = std::make_shared<SweepArgs>();
   auto* cmd = app.add_subcommand("sweep", "Run every layout of a sweep, store each run, print the comparison");
+  cmd->footer("Example:\n  runout sweep scenarios/flume/c0_c7.json --fidelity draft --jobs 2");
   cmd->add_option("sweep", a->path, "Sweep file (JSON)")->required();
-  cmd->add_option("--fidelity", a->fidelity, "draft | standard | fine (default: the sweep's)")
-      ->check(CLI::IsMember({"draft", "standard", "fine"}));
-  cmd->add_option("--dp", a->dp, "Explicit particle spacing [m] instead of a preset")->check(CLI::Range(1e-4, 1e3));
+  a->fidelity.add_to(cmd, "the sweep's");
   cmd->add_option("--jobs", a->jobs, "Runs at once (each gets the cores divided among the jobs)")->check(CLI::Range(1, 64));
   cmd->add_option("--threads,-j", a->threads, "OpenMP threads per run (default: cores / jobs)")->check(CLI::Range(0, 1024));
   cmd->add_option("--db", a->db, "Run store (SQLite)")->capture_default_str();

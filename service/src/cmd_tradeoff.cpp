@@ -130,6 +130,7 @@ Action add_tradeoff(CLI::App& app) {
   auto c = std::make_shared<TradeoffArgs>();
   auto* cmd = app.add_subcommand(
       "tradeoff", "Run a scene at a ladder of resolutions: cost and deviation of every metric from the finest");
+  cmd->footer("Example:\n  runout tradeoff scenarios/flume/c0_c7.json --variant C6 --levels draft,standard");
   cmd->add_option("file", c->file, "Scene or sweep file (JSON)")->required();
   cmd->add_option("--variant", c->variant, "The sweep's layout to run (default: its first)");
   cmd->add_option("--levels", c->levels, "draft, standard, fine or dp values [m] (default: all three presets)")

@@ -5,10 +5,13 @@
 #include <atomic>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
+
+#include "runout/scenarios/sweep.hpp"
 
 namespace runout::cli {
 
@@ -41,11 +44,21 @@ void stop_on_signals();
 // A file's whole text; throws SceneError ("(file)", cannot read PATH) if it cannot be read.
 std::string read_text(const std::filesystem::path& p);
 
+// `--fidelity draft|standard|fine` or `--dp DP` (mutually exclusive), as `run` and `sweep` take them; the
+// scene or sweep is then resolved by scenarios' resolve_scene / resolve_variant.
+struct FidelityArgs {
+  std::string name;
+  double dp = 0;
+  // `default_text` says what runs without either ("the sweep's", "the scene as written").
+  void add_to(CLI::App* cmd, const std::string& default_text);
+  std::optional<Fidelity> chosen() const;  // nullopt: neither option given
+};
+
 // `runout compare`'s table; `runout sweep` prints it at the end.
 struct CompareArgs {
-  std::string db = "runout.db", sweep, baseline, filter;
+  std::string db = "runout.db", sweep, baseline, filter, format = "table";
   std::vector<int64_t> ids;
-  bool all = false;
+  bool all = false, differing = false;
 };
 int compare(const CompareArgs& a);
 

@@ -79,6 +79,24 @@ TEST(Sweep, VariantKeepsItsStructuresAndTakesTheFidelity) {
   EXPECT_EQ(s.monitors[0].name, "Dam2");
 }
 
+TEST(Sweep, ASceneResolvesAtAFidelityAsAVariantDoesButKeepsItsStructuresAndName) {
+  const json base = base_scene();
+  const json r = json::parse(resolve_scene(base.dump(), Fidelity{"draft", {}}));
+  EXPECT_EQ(r["structures"].size(), 3u);  // all of them, as written
+  EXPECT_EQ(r["monitors"].size(), 1u);
+  EXPECT_EQ(r["name"], base["name"]);
+  EXPECT_DOUBLE_EQ(r["dp"].get<double>(), 2.0);                 // the scene's draft preset
+  EXPECT_DOUBLE_EQ(r["numerics"]["cfl"].get<double>(), 0.25);  // and its numerics
+  EXPECT_FALSE(r.contains("fidelity"));
+  // The same resolution as a layout with every structure built (only the name differs).
+  json v = json::parse(resolve_variant(base.dump(), {"all", {"Dam1", "Dam2", "Flat"}}, Fidelity{"draft", {}}));
+  v["name"] = r["name"];
+  EXPECT_EQ(v, r);
+  EXPECT_DOUBLE_EQ(json::parse(resolve_scene(base.dump(), Fidelity{"custom", 0.8}))["dp"].get<double>(), 0.8);
+  EXPECT_DOUBLE_EQ(json::parse(resolve_scene(base.dump(), Fidelity{"fine", {}}))["dp"].get<double>(), 0.5);
+  EXPECT_THROW(resolve_scene("{\"dp\": 1,", Fidelity{}), SceneError);
+}
+
 TEST(Sweep, ManifestChangesWithWhatChangesTheRunAndOnlyThat) {
   const json base = base_scene();
   const std::string a = resolve_variant(base.dump(), {"G1", {"Dam1"}}, Fidelity{"draft", {}});

@@ -1,20 +1,27 @@
 // `runout run SCENE --out DIR` refuses a bad scene before any work: exit code 2, a message naming the field
-// and the accepted range, and no output (DIR is not created; an existing DIR gets no metrics.json).
+// and the accepted range, and no output (DIR is not created; an existing DIR gets no metrics.json). Usage
+// errors exit 2 too, --help and --version 0; `run --fidelity/--dp` resolve the scene as a sweep does, and
+// `compare --format csv|json` print the decision metrics first, machine-readable.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "runout/scenarios/store.hpp"
+
 namespace fs = std::filesystem;
 using json = nlohmann::json;
+using runout::RunStore;
 
 namespace {
 
@@ -38,16 +45,24 @@ class Cli : public ::testing::Test {
   }
   // Runs the command line (arguments already quoted), output to a file; the exit code, or 128 + signal.
   int run(const std::string& args) {
-    const std::string cmd = q(kRunout) + " " + args + " > " + q(dir_ / "output.txt") + " 2>&1";
+    return run_shell(q(kRunout) + " " + args + " > " + q(dir_ / "output.txt") + " 2>&1");
+  }
+  // Runs the command line with stdout to stdout.txt and stderr to output.txt (output()).
+  int run_split(const std::string& args) {
+    return run_shell(q(kRunout) + " " + args + " > " + q(dir_ / "stdout.txt") + " 2> " + q(dir_ / "output.txt"));
+  }
+  int run_shell(const std::string& cmd) {
     const int status = std::system(cmd.c_str());
     if (status == -1) return -1;
     if (WIFEXITED(status)) return WEXITSTATUS(status);
     if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
     return -1;
   }
-  // What the command printed, stdout and stderr together (spdlog's default logger writes to stdout).
-  std::string output() const {
-    std::ifstream in(dir_ / "output.txt");
+  // What the command printed: stdout and stderr together after run(), stderr alone after run_split().
+  std::string output() const { return text(dir_ / "output.txt"); }
+  std::string standard_output() const { return text(dir_ / "stdout.txt"); }
+  static std::string text(const fs::path& p) {
+    std::ifstream in(p);
     std::stringstream s;
     s << in.rdbuf();
     return s.str();
@@ -140,11 +155,11 @@ TEST_F(Cli, ParticleCountOverTheLimitIsRefusedWithExit2) {
   EXPECT_NE(output().find("limits.max_particles = 50"), std::string::npos) << output();
 }
 
-TEST_F(Cli, MissingSceneFileFailsWithoutOutput) {
-  // CLI11 checks the file exists (exit 105 today, not 2): only "fails and writes nothing" is asserted.
+TEST_F(Cli, MissingSceneFileIsRefusedWithExit2AndNoOutput) {
   const fs::path out = dir_ / "out";
-  EXPECT_NE(run("run " + q(dir_ / "no-such-scene.json") + " --out " + q(out) + " --quiet"), 0);
+  EXPECT_EQ(run("run " + q(dir_ / "no-such-scene.json") + " --out " + q(out) + " --quiet"), 2);
   EXPECT_FALSE(fs::exists(out));
+  EXPECT_NE(output().find("no-such-scene.json"), std::string::npos) << output();
 }
 
 // Disabled until scene.cpp turns nlohmann's out_of_range into a SceneError: today the CLI aborts
@@ -168,6 +183,196 @@ TEST_F(Cli, PeriodicVerticalAxisIsRefusedWithExit2) {
   const fs::path out = dir_ / "out";
   EXPECT_EQ(run("run " + q(scene) + " --out " + q(out) + " --quiet"), 2) << output();
   EXPECT_FALSE(fs::exists(out));
+}
+
+TEST_F(Cli, UsageErrorsExit2WithCli11sMessage) {
+  EXPECT_EQ(run("run " + q(write("good.json", good_scene().dump())) + " --no-such-option"), 2);
+  EXPECT_NE(output().find("--no-such-option"), std::string::npos) << output();
+  EXPECT_EQ(run("run"), 2);  // the scene argument missing
+  EXPECT_NE(output().find("scene is required"), std::string::npos) << output();
+  EXPECT_EQ(run(""), 2);  // no subcommand
+  EXPECT_EQ(run("sweep --jobs 0 scenarios/flume/c0_c7.json"), 2);  // out of range
+  EXPECT_NE(output().find("--jobs"), std::string::npos) << output();
+  EXPECT_EQ(run("compare --format xml"), 2);
+  EXPECT_NE(output().find("xml"), std::string::npos) << output();
+}
+
+TEST_F(Cli, HelpAndVersionExit0) {
+  ASSERT_EQ(run("--version"), 0);
+  EXPECT_EQ(output(), std::string(RUNOUT_VERSION) + "\n");
+  ASSERT_EQ(run("--help"), 0);
+  EXPECT_NE(output().find("compare"), std::string::npos) << output();
+  // Every subcommand's help ends with an example that uses a shipped file or none.
+  for (const char* sub : {"run", "sweep", "compare", "serve", "tradeoff", "calibrate", "schema"}) {
+    ASSERT_EQ(run(std::string(sub) + " --help"), 0) << sub;
+    const std::string help = output();
+    const size_t example = help.find("Example");
+    ASSERT_NE(example, std::string::npos) << sub << ":\n" << help;
+    EXPECT_NE(help.find("  runout " + std::string(sub), example), std::string::npos) << sub << ":\n" << help;
+    const size_t file = help.find("scenarios/", example);
+    if (file != std::string::npos) {  // the file it names is shipped
+      const std::string name = help.substr(file, help.find_first_of(" )\n", file) - file);
+      EXPECT_TRUE(fs::exists(fs::path(RUNOUT_SOURCE_DIR) / name)) << sub << ": " << name;
+    }
+  }
+}
+
+TEST_F(Cli, RunRefusesFidelityAndDpTogether) {
+  const fs::path scene = write("good.json", good_scene().dump());
+  const fs::path out = dir_ / "out";
+  EXPECT_EQ(run("run " + q(scene) + " --fidelity draft --dp 0.04 --out " + q(out) + " --no-db"), 2);
+  EXPECT_NE(output().find("--fidelity"), std::string::npos) << output();
+  EXPECT_NE(output().find("--dp"), std::string::npos) << output();
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_EQ(run("run " + q(scene) + " --fidelity coarse --out " + q(out) + " --no-db"), 2);
+  EXPECT_NE(output().find("coarse"), std::string::npos) << output();
+}
+
+// The smallest shipped scene (the 2D dam break, 1 s) with two sections and the tank's load at a coarse dp.
+fs::path dam_break_with_monitors(const fs::path& dir) {
+  std::ifstream in(fs::path(RUNOUT_SOURCE_DIR) / "scenarios/validation/dam_break_2d.json");
+  json s = json::parse(in);
+  s["monitors"] = json::parse(R"([{"type": "section", "name": "S1", "x": 1.0},
+                                  {"type": "section", "name": "S2", "x": 2.0},
+                                  {"type": "structure_load", "name": "Tank", "structure": "tank"}])");
+  const fs::path p = dir / "dam_break.json";
+  std::ofstream(p) << s.dump();
+  return p;
+}
+
+TEST_F(Cli, RunAtAnExplicitDpRunsAndStoresAtThatDp) {
+  const fs::path scene = dam_break_with_monitors(dir_);
+  const fs::path out = dir_ / "out", db = dir_ / "runs.db";
+  ASSERT_EQ(run("run " + q(scene) + " --dp 0.05 --out " + q(out) + " --db " + q(db) + " --threads 1 --quiet"), 0)
+      << output();
+  std::ifstream in(out / "metrics.json");
+  const json m = json::parse(in);
+  EXPECT_DOUBLE_EQ(m.at("settings").at("dp_m").get<double>(), 0.05);  // the scene says 0.01
+  // Stored as a sweep stores a run at an explicit dp: fidelity "custom", the resolved dp in the manifest.
+  {
+    const RunStore store(db);
+    const auto row = store.get_run(1);
+    ASSERT_TRUE(row);
+    EXPECT_EQ(row->fidelity, "custom");
+    const json manifest = json::parse(store.manifest_json(1));
+    EXPECT_EQ(manifest.at("fidelity"), "custom");
+    EXPECT_DOUBLE_EQ(manifest.at("scene").at("dp").get<double>(), 0.05);
+  }
+  ASSERT_EQ(run_split("compare --runs 1 --all --format json --filter settings.dp_m --db " + q(db)), 0) << output();
+  const json c = json::parse(standard_output());
+  ASSERT_EQ(c.at("rows").size(), 1u) << c.dump();
+  EXPECT_DOUBLE_EQ(c["rows"][0]["baseline"].get<double>(), 0.05);
+  // The same scene and dp again is the same run (one manifest): it is not stored twice.
+  ASSERT_EQ(run("run " + q(scene) + " --dp 0.05 --out " + q(out) + " --db " + q(db) + " --threads 1 --quiet"), 0);
+  EXPECT_NE(output().find("stored as run 1 "), std::string::npos) << output();
+}
+
+TEST_F(Cli, RunAtAFidelityTakesTheScenesDefaultLadder) {
+  // No presets in the scene: draft is twice its dp (0.02 m), as a sweep's layout would be.
+  const fs::path scene = write("good.json", good_scene().dump());
+  const fs::path out = dir_ / "out", db = dir_ / "runs.db";
+  ASSERT_EQ(run("run " + q(scene) + " --fidelity draft --out " + q(out) + " --db " + q(db) + " --threads 1 --quiet"), 0)
+      << output();
+  std::ifstream in(out / "metrics.json");
+  EXPECT_DOUBLE_EQ(json::parse(in).at("settings").at("dp_m").get<double>(), 0.04);
+  const RunStore store(db);
+  EXPECT_EQ(store.get_run(1)->fidelity, "draft");
+  EXPECT_EQ(json::parse(store.manifest_json(1)).at("fidelity"), "draft");
+  // As written, the same scene is another run (fidelity "scene"), not the draft one reused.
+  ASSERT_EQ(run("run " + q(scene) + " --out " + q(dir_ / "as-written") + " --db " + q(db) + " --threads 1 --quiet"), 0);
+  EXPECT_NE(output().find("stored as run 2 "), std::string::npos) << output();
+}
+
+class CliCompare : public Cli {
+ protected:
+  // Two stored runs of the dam break with monitors, at dp 0.05 (run 1, the baseline) and 0.04 (run 2).
+  void SetUp() override {
+    Cli::SetUp();
+    const fs::path scene = dam_break_with_monitors(dir_);
+    db_ = dir_ / "runs.db";
+    for (const char* dp : {"0.05", "0.04"})
+      ASSERT_EQ(run("run " + q(scene) + " --dp " + dp + " --out " + q(dir_ / dp) + " --db " + q(db_) +
+                    " --threads 1 --quiet"),
+                0)
+          << output();
+  }
+  fs::path db_;
+};
+
+TEST_F(CliCompare, JsonHasTheDecisionMetricsFirst) {
+  ASSERT_EQ(run_split("compare --runs 1 2 --format json --all --db " + q(db_)), 0) << output();
+  const json c = json::parse(standard_output());
+  EXPECT_EQ(c.at("baseline"), "#1");
+  EXPECT_EQ(c.at("runs"), json::array({"#2"}));
+  EXPECT_EQ(c.at("outlet"), "S2");
+  const json& rows = c.at("rows");
+  ASSERT_GT(rows.size(), 20u);
+  EXPECT_EQ(rows[0]["metric"], "monitors.section.S2.peak_discharge_m3_s");
+  EXPECT_EQ(rows[1]["metric"], "monitors.section.S2.volume_passed_m3");
+  EXPECT_EQ(rows[2]["metric"], "monitors.structure_load.Tank.peak_force_n");
+  EXPECT_EQ(rows[3]["metric"], "monitors.structure_load.Tank.peak_mean_pressure_pa");
+  size_t decision = 0;
+  while (decision < rows.size() && rows[decision]["decision"].get<bool>()) ++decision;
+  EXPECT_EQ(decision, 4u);
+  for (size_t k = decision; k < rows.size(); ++k) EXPECT_FALSE(rows[k]["decision"].get<bool>()) << rows[k].dump();
+  for (const auto& r : rows) {
+    ASSERT_EQ(r["values"].size(), 1u);
+    ASSERT_EQ(r["percent"].size(), 1u);
+    if (r["baseline"].is_number() && r["values"][0].is_number() && r["baseline"].get<double>() != 0) {
+      const double base = r["baseline"].get<double>(), value = r["values"][0].get<double>();
+      EXPECT_NEAR(r["percent"][0].get<double>(), (value - base) / std::abs(base) * 100,
+                  1e-9 * (1 + std::abs(r["percent"][0].get<double>())))
+          << r.dump();
+    }
+  }
+  // --baseline with --runs is a run id; the second run as the baseline swaps the columns.
+  ASSERT_EQ(run_split("compare --runs 1 2 --baseline 2 --format json --db " + q(db_)), 0) << output();
+  EXPECT_EQ(json::parse(standard_output()).at("baseline"), "#2");
+  EXPECT_EQ(run_split("compare --runs 1 2 --baseline C0 --db " + q(db_)), 2);
+  EXPECT_NE(output().find("--baseline 'C0' must be a run id"), std::string::npos) << output();
+  // Without --all: the decision metrics alone.
+  ASSERT_EQ(run_split("compare --runs 1 2 --format json --db " + q(db_)), 0) << output();
+  EXPECT_EQ(json::parse(standard_output()).at("rows").size(), 4u);
+}
+
+// RFC 4180 fields of one line (no line breaks inside fields here).
+std::vector<std::string> csv_fields(const std::string& line) {
+  std::vector<std::string> out(1);
+  bool quoted = false;
+  for (size_t k = 0; k < line.size(); ++k) {
+    const char c = line[k];
+    if (quoted && c == '"' && k + 1 < line.size() && line[k + 1] == '"') out.back() += '"', ++k;
+    else if (c == '"') quoted = !quoted;
+    else if (c == ',' && !quoted) out.emplace_back();
+    else out.back() += c;
+  }
+  return out;
+}
+
+TEST_F(CliCompare, CsvHasOneColumnPerValueAndPercent) {
+  ASSERT_EQ(run_split("compare --runs 1 2 --format csv --all --db " + q(db_)), 0) << output();
+  std::istringstream in(standard_output());
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  const auto header = csv_fields(line);
+  EXPECT_EQ(header, (std::vector<std::string>{"metric", "decision", "#1 (baseline)", "#2", "#2 %"}));
+  size_t rows = 0;
+  while (std::getline(in, line)) {
+    const auto f = csv_fields(line);
+    ASSERT_EQ(f.size(), header.size()) << line;
+    if (rows == 0) {
+      EXPECT_EQ(f[0], "monitors.section.S2.peak_discharge_m3_s");
+      EXPECT_EQ(f[1], "1");
+    }
+    for (size_t k = 2; k < f.size(); ++k)
+      if (!f[k].empty()) {
+        size_t used = 0;
+        (void)std::stod(f[k], &used);  // a plain number, not "12.3 (+4.0%)"
+        EXPECT_EQ(used, f[k].size()) << line;
+      }
+    ++rows;
+  }
+  EXPECT_GT(rows, 20u);
 }
 
 }  // namespace

@@ -46,6 +46,11 @@ std::vector<SweepVariant> factorial_variants(const std::vector<std::string>& nam
 // parse_scene when run.
 std::string resolve_variant(const std::string& base_json, const SweepVariant& variant, const Fidelity& fidelity);
 
+// One scene's JSON at a fidelity, resolved as resolve_variant resolves a layout (dp and the preset's numerics
+// applied, "fidelity" removed) but with its structures and name as written: `runout run --fidelity/--dp`.
+// Throws SceneError on malformed JSON. Validated by parse_scene when run.
+std::string resolve_scene(const std::string& scene_json, const Fidelity& fidelity);
+
 // The run's identity: SHA-256 over the resolved scene (canonical JSON), the hashes of the files it reads
 // (the DEM), the fidelity and the program version. Same inputs, same hash: a stored run is not recomputed.
 struct Manifest {
