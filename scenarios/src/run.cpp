@@ -8,12 +8,14 @@
 #include <fstream>
 #include <iomanip>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
 #include "runout/engine/geometry.hpp"
 #include "runout/scenarios/cost_model.hpp"
+#include "runout/scenarios/vtk_output.hpp"
 #include "runout/terrain/terrain.hpp"
 #include "runout/terrain/vector.hpp"
 #include "hazard_outputs.hpp"
@@ -45,55 +47,6 @@ real front_position(const ParticleArrays<D>& f) {
   const size_t k = std::min(x.size(), std::max<size_t>(3, x.size() / 1000));
   std::nth_element(x.begin(), x.begin() + (k - 1), x.end(), std::greater<real>());
   return x[k - 1];
-}
-
-template <int D>
-void write_vtp(const fs::path& path, const Solver<D>& s) {
-  const auto& f = s.fluid();
-  const auto& b = s.boundary();
-  std::ostringstream o;
-  o << std::setprecision(7);
-  const size_t n = f.size() + b.size();
-  o << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
-    << "<PolyData>\n<Piece NumberOfPoints=\"" << n << "\" NumberOfVerts=\"" << n
-    << "\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n<Points>\n"
-    << "<DataArray type=\"Float32\" NumberOfComponents=\"3\" format=\"ascii\">\n";
-  auto write_pos = [&](const ParticleArrays<D>& p) {
-    for (size_t i = 0; i < p.size(); ++i) {
-      o << p.pos[0][i] << ' ' << (D == 3 ? p.pos[1][i] : 0.0) << ' ' << p.pos[D - 1][i] << '\n';
-    }
-  };
-  write_pos(f);
-  write_pos(b);
-  o << "</DataArray>\n</Points>\n<PointData Scalars=\"pressure\" Vectors=\"velocity\">\n";
-  o << "<DataArray type=\"Float32\" Name=\"velocity\" NumberOfComponents=\"3\" format=\"ascii\">\n";
-  for (size_t i = 0; i < f.size(); ++i)
-    o << f.vel[0][i] << ' ' << (D == 3 ? f.vel[1][i] : 0.0) << ' ' << f.vel[D - 1][i] << '\n';
-  for (size_t i = 0; i < b.size(); ++i) o << "0 0 0\n";
-  o << "</DataArray>\n<DataArray type=\"Float32\" Name=\"density\" format=\"ascii\">\n";
-  for (size_t i = 0; i < f.size(); ++i) o << f.rho[i] << '\n';
-  for (size_t i = 0; i < b.size(); ++i) o << b.rho[i] << '\n';
-  o << "</DataArray>\n<DataArray type=\"Float32\" Name=\"pressure\" format=\"ascii\">\n";
-  const auto& p = s.fluid_pressure();
-  for (size_t i = 0; i < f.size(); ++i) o << (i < p.size() ? p[i] : 0.0) << '\n';
-  const auto& bp = s.boundary_pressure();
-  for (size_t i = 0; i < b.size(); ++i) o << bp[i] << '\n';
-  o << "</DataArray>\n<DataArray type=\"Float32\" Name=\"effective_viscosity\" format=\"ascii\">\n";
-  const auto& mu = s.fluid_effective_viscosity();
-  for (size_t i = 0; i < f.size(); ++i) o << (i < mu.size() ? mu[i] : 0.0) << '\n';
-  for (size_t i = 0; i < b.size(); ++i) o << "0\n";
-  o << "</DataArray>\n<DataArray type=\"Int32\" Name=\"type\" format=\"ascii\">\n";
-  for (size_t i = 0; i < f.size(); ++i) o << "0\n";
-  for (size_t i = 0; i < b.size(); ++i) o << "1\n";
-  o << "</DataArray>\n<DataArray type=\"Int32\" Name=\"material_or_tag\" format=\"ascii\">\n";
-  for (size_t i = 0; i < f.size(); ++i) o << f.material[i] << '\n';
-  for (size_t i = 0; i < b.size(); ++i) o << b.tag[i] << '\n';
-  o << "</DataArray>\n</PointData>\n<Verts>\n<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
-  for (size_t i = 0; i < n; ++i) o << i << '\n';
-  o << "</DataArray>\n<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
-  for (size_t i = 0; i < n; ++i) o << i + 1 << '\n';
-  o << "</DataArray>\n</Verts>\n</Piece>\n</PolyData>\n</VTKFile>\n";
-  write_atomically(path, o.str());
 }
 
 // series/<type>_<name>.csv, with characters outside [A-Za-z0-9._-] in the name replaced by '_'.
@@ -433,35 +386,29 @@ class RunSeries {
   real max_ke_excess_ = -1e300;
 };
 
-// OUT/snapshots/snapshot_NNNN.vtp at the start and every output.snapshot_interval (default: duration / 20),
+// OUT/snapshots/ (vtk_output.hpp) at the start and every output.snapshot_interval (default: duration / 20),
 // when the run was asked for snapshots.
 template <int D>
 class Snapshots {
  public:
   Snapshots(const Scene& scene, const RunOptions& opt)
-      : dir_(opt.out_dir / "snapshots"), on_(opt.snapshots),
-        interval_(opt.snapshots ? (scene.output.snapshot_interval > 0 ? scene.output.snapshot_interval
-                                                                      : scene.duration / 20.0)
-                                : 0.0) {}
+      : interval_(scene.output.snapshot_interval > 0 ? scene.output.snapshot_interval : scene.duration / 20.0) {
+    if (opt.snapshots) writer_.emplace(scene, opt.out_dir / "snapshots");
+  }
   void first(const Solver<D>& s) {
-    if (!on_) return;
-    write_vtp(dir_ / "snapshot_0000.vtp", s);
-    ++index_;
+    if (!writer_) return;
+    writer_->write_frame(s);
     next_ = interval_;
   }
   void after_step(const Solver<D>& s) {
-    if (!on_ || s.time() < next_ - 1e-12) return;
-    std::ostringstream name;
-    name << "snapshot_" << std::setw(4) << std::setfill('0') << index_++ << ".vtp";
-    write_vtp(dir_ / name.str(), s);
+    if (!writer_ || s.time() < next_ - 1e-12) return;
+    writer_->write_frame(s);
     next_ += interval_;
   }
 
  private:
-  fs::path dir_;
-  bool on_;
+  std::optional<SnapshotWriter<D>> writer_;
   real interval_;
-  int index_ = 0;
   real next_ = 0;
 };
 
@@ -703,7 +650,6 @@ template <int D>
 RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOptions& opt) {
   if (opt.threads > 0) omp_set_num_threads(opt.threads);
   fs::create_directories(opt.out_dir / "series");
-  if (opt.snapshots) fs::create_directories(opt.out_dir / "snapshots");
 
   Solver<D> solver(setup);
   ParticleCounts counts{solver.fluid().size(), static_cast<size_t>(solver.boundary_described())};

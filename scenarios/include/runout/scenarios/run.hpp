@@ -3,7 +3,8 @@
 //   OUT/metrics.json            run statistics, mass balance, energy, front, resolved settings, status
 //   OUT/series/run.csv          t, dt, kinetic energy, potential energy released, max speed, front, mass
 //   OUT/series/final_surface.csv  x, surface height of the fluid at the end (binned at dp)
-//   OUT/snapshots/*.vtp         particle snapshots (when asked), ParaView-readable VTK XML PolyData
+//   OUT/snapshots/              particle snapshots (when asked) for ParaView: frames, walls, DEM, snapshots.pvd
+//                               (vtk_output.hpp)
 #include <atomic>
 #include <filesystem>
 #include <functional>

@@ -2,7 +2,8 @@
 // A terrain scene: the reachable corridor of a DEM as boundary particles, the structures a layout places on
 // it, and the release filled with flow particles. Coordinates: structures, release and zones are given in
 // map coordinates of the working (projected) CRS; the particles live in a local frame
-// x = map_x - origin_x, y = map_y - origin_y, z = elevation, so snapshots keep their precision.
+// x = map_x - origin_x, y = map_y - origin_y, z = elevation, so positions keep their precision in the solver
+// (snapshots add the origin back, in Float64).
 #include <array>
 #include <cstdint>
 #include <memory>
