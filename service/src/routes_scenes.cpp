@@ -15,10 +15,17 @@ void Server::Impl::routes_scenes() {
     send_json(res, created ? 201 : 200, scene_json(row, false));
   });
   add("/scenes", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
-    only_params(req, {});
+    FieldErrors errors;
+    only_params(req, {"limit", "cursor"}, errors);
+    const PageRequest page = page_request(req, 100, 1000, errors);
+    errors.raise();
+    auto rows = queue->list_scenes(page.limit + 1, page.cursor);  // one more: is there a next page?
+    const bool more = static_cast<int64_t>(rows.size()) > page.limit;
+    if (more) rows.pop_back();
     json list = json::array();
-    for (const auto& s : queue->list_scenes()) list.push_back(scene_json(s, false));
-    send_json(res, 200, {{"scenes", list}});
+    for (const auto& s : rows) list.push_back(scene_json(s, false));
+    const json next = next_page(req, res, more ? std::optional<int64_t>(rows.back().id) : std::nullopt);
+    send_json(res, 200, {{"scenes", list}, {"limit", page.limit}, {"next", next}});
   });
   add(R"(/scenes/(\d{1,18}))", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
     only_params(req, {});

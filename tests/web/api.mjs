@@ -108,7 +108,8 @@ try {
     const a = await call(s, 'POST', '/estimate', bad);
     const b = await call(s, 'POST', '/jobs', bad);
     check(a.status >= 400 && a.status < 500, `estimate refuses ${JSON.stringify(bad).slice(0, 80)}: ${a.status}`);
-    equal(a.json?.error, b.json?.error, `estimate and POST /jobs give the same error for ${JSON.stringify(bad).slice(0, 80)}`);
+    equal([a.status, a.json?.type, a.json?.errors], [b.status, b.json?.type, b.json?.errors],
+      `estimate and POST /jobs give the same problem for ${JSON.stringify(bad).slice(0, 80)}`);
   }
   equal((await call(s, 'GET', '/jobs')).json.total, 0, 'refused submissions write no job');
 
@@ -124,7 +125,7 @@ try {
   equal(done.status, 'done', 'the tiny job finishes');
   const flat = await call(s, 'GET', `/jobs/${job.json.id}/map.json`);
   equal(flat.status, 404, 'map.json of a 2D job');
-  equal(flat.json?.error?.field, 'id', 'the 404 names the job');
+  equal(flat.json?.errors?.[0]?.field, 'id', 'the 404 names the job');
   equal((await call(s, 'GET', '/jobs/999/map.json')).status, 404, 'map.json of no job');
 
   // A flume layout (coarse, short): the map's extent and overlays.
@@ -163,7 +164,7 @@ try {
   servers.push(t);
   const no = await call(t, 'POST', '/estimate', body);
   equal(no.status, 401, 'estimate without the token');
-  equal(no.json?.error?.field, 'Authorization', 'the 401 names the header');
+  equal(no.json?.errors?.[0]?.field, 'Authorization', 'the 401 names the header');
   const yes = await call(t, 'POST', '/estimate', body, { Authorization: 'Bearer sesame' });
   equal(yes.status, 200, 'estimate with the token');
 } catch (e) {
