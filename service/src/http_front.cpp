@@ -82,8 +82,11 @@ std::string problem_body(int status, const std::string& instance, const std::vec
     if (!e.field.empty()) list.push_back({{"field", e.field}, {"message", e.message}});
   std::string detail = errors.empty() ? problem_title(status, first_field) : errors.front().message;
   if (!errors.empty() && !first_field.empty()) detail = first_field + ": " + detail;
-  if (errors.size() > 1)
-    detail = std::to_string(errors.size()) + " fields are invalid (each in errors); the first, " + detail;
+  if (errors.size() > 1) {  // a last "(errors)" entry counts those not listed (FieldErrors, requests.hpp)
+    const bool capped = errors.back().field == "(errors)";
+    detail = (capped ? "more than " + std::to_string(errors.size() - 1) : std::to_string(errors.size())) +
+             " fields are invalid (each in errors); the first, " + detail;
+  }
   json j = {{"type", problem_type(status, first_field)},
             {"title", problem_title(status, first_field)},
             {"status", status},

@@ -365,11 +365,12 @@ void check_json_depth(const std::string& body, const std::string& field) {
 }
 
 void FieldErrors::add(const ApiError& e) {
-  if (e.errors.empty()) {
-    errors_.push_back(e);
-    return;
-  }
-  for (const auto& [field, message] : e.errors) errors_.emplace_back(e.status, field, message);
+  auto keep = [&](const ApiError& one) {
+    if (errors_.size() < kMaxListed) errors_.push_back(one);
+    else ++unlisted_;
+  };
+  if (e.errors.empty()) keep(e);
+  for (const auto& [field, message] : e.errors) keep(ApiError(e.status, field, message));
 }
 
 void FieldErrors::raise() const {
@@ -380,6 +381,9 @@ void FieldErrors::raise() const {
   ApiError out(status, errors_.front().field, errors_.front().what());
   if (errors_.size() > 1)
     for (const auto& e : errors_) out.errors.emplace_back(e.field, e.what());
+  if (unlisted_ > 0)
+    out.errors.emplace_back("(errors)", "and " + std::to_string(unlisted_) + " more invalid fields, not listed (at most " +
+                                            std::to_string(kMaxListed) + " are)");
   throw out;
 }
 

@@ -46,12 +46,16 @@ class FieldErrors {
   }
   void add(const ApiError& e);
   bool empty() const { return errors_.empty(); }
+  // At most this many are listed (a body of a million unknown keys must not make a bigger answer); the rest
+  // are counted in a last entry, "(errors)".
+  static constexpr size_t kMaxListed = 100;
   // Throws one ApiError carrying every error recorded (none: returns). Its status is the first error's, or
   // 422 when the errors differ in status and one is 422 (a body whose content is wrong).
   void raise() const;
 
  private:
   std::vector<ApiError> errors_;
+  size_t unlisted_ = 0;
 };
 
 // Arrays and objects may nest at most this deep in a request body (422 beyond); checked on the bytes before

@@ -178,6 +178,15 @@ TEST_F(Api, EveryInvalidFieldIsListed) {
   EXPECT_EQ(fields(sweep), (std::vector<std::string>{"name", "variants[0].structures[0]", "variants[1].name",
                                                      "variants[2].name"}))
       << sweep.text;
+  // A body of many unknown fields: the first 100 are listed, the rest counted in a last entry.
+  json many = {{"scene", tiny_scene("many")}};
+  for (int k = 0; k < 150; ++k) many["x" + std::to_string(1000 + k)] = k;
+  const Reply capped = post("/jobs", many);
+  EXPECT_EQ(capped.status, 422);
+  ASSERT_EQ(capped.body.at("errors").size(), 101u) << capped.text.substr(0, 300);
+  EXPECT_EQ(capped.body.at("errors")[100].at("field"), "(errors)");
+  EXPECT_NE(capped.body.at("errors")[100].at("message").get<std::string>().find("50 more"), std::string::npos);
+  EXPECT_NE(capped.body.at("detail").get<std::string>().find("more than 100 fields"), std::string::npos);
   // Query parameters likewise.
   const Reply query = get("/jobs?limit=0&status=finished&colour=red");
   EXPECT_EQ(query.status, 400);
