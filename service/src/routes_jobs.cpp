@@ -43,11 +43,10 @@ void Server::Impl::routes_jobs() {
     errors.raise();
     if (sweep && !queue->get_sweep(*sweep)) throw ApiError(404, "sweep", "no sweep with id " + std::to_string(*sweep));
     auto rows = queue->list(status, sweep, page.limit + 1, offset, page.cursor);  // one more: a next page?
-    const bool more = static_cast<int64_t>(rows.size()) > page.limit;
-    if (more) rows.pop_back();
+    const std::optional<int64_t> next_key = trim_page(rows, page.limit);
     json list = json::array();
     for (const auto& j : rows) list.push_back(job_json(j, false));
-    const json next = next_page(req, res, more ? std::optional<int64_t>(rows.back().id) : std::nullopt);
+    const json next = next_page(req, res, next_key);
     send_json(res, 200,
               {{"total", queue->count(status, sweep)}, {"limit", page.limit}, {"offset", offset}, {"jobs", list},
                {"next", next}});

@@ -20,11 +20,10 @@ void Server::Impl::routes_scenes() {
     const PageRequest page = page_request(req, 100, 1000, errors);
     errors.raise();
     auto rows = queue->list_scenes(page.limit + 1, page.cursor);  // one more: is there a next page?
-    const bool more = static_cast<int64_t>(rows.size()) > page.limit;
-    if (more) rows.pop_back();
+    const std::optional<int64_t> next_key = trim_page(rows, page.limit);
     json list = json::array();
     for (const auto& s : rows) list.push_back(scene_json(s, false));
-    const json next = next_page(req, res, more ? std::optional<int64_t>(rows.back().id) : std::nullopt);
+    const json next = next_page(req, res, next_key);
     send_json(res, 200, {{"scenes", list}, {"limit", page.limit}, {"next", next}});
   });
   add(R"(/scenes/(\d{1,18}))", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {

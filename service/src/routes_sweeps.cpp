@@ -78,8 +78,7 @@ void Server::Impl::routes_sweeps() {
     const PageRequest page = page_request(req, 100, 1000, errors);
     errors.raise();
     auto rows = queue->list_sweeps(page.limit + 1, page.cursor);  // one more: is there a next page?
-    const bool more = static_cast<int64_t>(rows.size()) > page.limit;
-    if (more) rows.pop_back();
+    const std::optional<int64_t> next_key = trim_page(rows, page.limit);
     json list = json::array();
     if (!rows.empty()) {
       const auto counts = queue->sweep_job_counts(rows.back().id, rows.front().id);
@@ -88,7 +87,7 @@ void Server::Impl::routes_sweeps() {
         list.push_back(sweep_summary(s, it == counts.end() ? std::map<std::string, int64_t>{} : it->second));
       }
     }
-    const json next = next_page(req, res, more ? std::optional<int64_t>(rows.back().id) : std::nullopt);
+    const json next = next_page(req, res, next_key);
     send_json(res, 200, {{"sweeps", list}, {"limit", page.limit}, {"next", next}});
   });
   // One sweep: its variants with their jobs' status and progress; once every job is done, the comparison.

@@ -207,6 +207,15 @@ inline PageRequest page_request(const httplib::Request& req, int64_t default_lim
   return p;
 }
 
+// A page query fetches limit + 1 rows: the extra one only says that a next page exists. Drops it; the key the
+// next page continues after (the last row's id), or nothing on the last page.
+template <class Row>
+std::optional<int64_t> trim_page(std::vector<Row>& rows, int64_t limit) {
+  if (static_cast<int64_t>(rows.size()) <= limit) return std::nullopt;
+  rows.resize(static_cast<size_t>(limit));
+  return rows.back().id;
+}
+
 // The next page's URL (this request with `cursor` for `key` in place of cursor and offset) in the `Link`
 // header (RFC 8288) and as the list's `next`; null without a next page.
 inline json next_page(const httplib::Request& req, httplib::Response& res, const std::optional<int64_t>& key) {

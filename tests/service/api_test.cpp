@@ -4,6 +4,7 @@
 #include "service/service_harness.hpp"
 
 #include <set>
+#include <tuple>
 
 using namespace runout_test;
 
@@ -116,6 +117,21 @@ TEST_F(Api, EveryRefusalIsAProblemDocument) {
     Raw c(server_.port());
     ASSERT_TRUE(c.send("GET /api/v1/health HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(20000, 'a') + "\r\n\r\n"));
     expect_raw_problem(c.response(3000ms), 431, "head-too-large", "", "(headers)");
+  }
+  // The rest of the front end's refusals: 414 and 505 (the request line: no path yet), 417 and 501 (the head).
+  for (const auto& [head, status, kind, instance, field] :
+       std::vector<std::tuple<std::string, int, std::string, std::string, std::string>>{
+           {"GET /api/v1/" + std::string(9000, 'a') + " HTTP/1.1\r\nHost: x\r\n\r\n", 414, "target-too-long", "", "(request)"},
+           {"GET /api/v1/health HTTP/2.0\r\nHost: x\r\n\r\n", 505, "http-version-not-supported", "", "(request)"},
+           {"POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer " + kToken +
+                "\r\nExpect: 200-ok\r\nContent-Length: 2\r\n\r\n",
+            417, "expectation-failed", "/api/v1/jobs", "Expect"},
+           {"POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer " + kToken +
+                "\r\nTransfer-Encoding: gzip\r\n\r\n",
+            501, "not-implemented", "/api/v1/jobs", "Transfer-Encoding"}}) {
+    Raw c(server_.port());
+    ASSERT_TRUE(c.send(head));
+    expect_raw_problem(c.response(3000ms), status, kind, instance, field);
   }
   {
     Raw c(server_.port());
