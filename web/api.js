@@ -1,14 +1,17 @@
-// The service's JSON API (/api/v1, docs/service.md). Every refusal is {"error": {status, field, message}};
-// ApiError carries it so the page can show the message beside the field it names.
+// The service's JSON API (/api/v1, docs/service.md). Every refusal is an RFC 9457 problem document
+// (application/problem+json) whose `errors` lists every invalid field, {field, message}; ApiError carries them so
+// that the page can show each message beside the field it names.
 
 export const API = '/api/v1';
 const TOKEN_KEY = 'runout.token';
 
 export class ApiError extends Error {
-  constructor(status, field, message) {
-    super(message);
+  // errors: [{field, message}], the first also as `field` and the Error's message.
+  constructor(status, field, message, errors = [{ field, message }]) {
+    super(errors.length ? errors[0].message : message);
     this.status = status;
-    this.field = field || '';
+    this.errors = errors.length ? errors : [{ field, message }];
+    this.field = this.errors[0].field || '';
   }
 }
 
@@ -28,8 +31,11 @@ async function errorOf(res) {
   } catch {
     /* not JSON: a proxy's page, say */
   }
-  const e = body && body.error;
-  if (e) return new ApiError(e.status || res.status, e.field, e.message);
+  if (body && Array.isArray(body.errors)) {
+    const status = body.status || res.status;
+    const detail = body.detail || body.title || `HTTP ${res.status}`;
+    return new ApiError(status, '', detail, body.errors.length ? body.errors : [{ field: '', message: detail }]);
+  }
   return new ApiError(res.status, '', `HTTP ${res.status} ${res.statusText}`);
 }
 
@@ -55,6 +61,16 @@ export async function request(method, path, body) {
 }
 
 export const get = (path) => request('GET', path);
+// Every item of a paged list (docs/service.md, "Lists"): the pages of `path`, following each one's `next`.
+export async function getAll(path, member) {
+  const items = [];
+  for (let next = path; next; ) {
+    const page = await get(next);
+    items.push(...page[member]);
+    next = page.next ? page.next.slice(API.length) : null;
+  }
+  return items;
+}
 export const post = (path, body) => request('POST', path, body);
 export const del = (path) => request('DELETE', path);
 

@@ -1,7 +1,7 @@
 // The Runout page (docs/web.md): choose a layout of a stored base scene, see its estimate, submit it (or all
 // permutations), watch the jobs, compare finished ones against a baseline. Everything goes through the JSON
 // API (api.js); the API validates, and its messages are shown beside the field they name.
-import { ApiError, get, post, del, token, setToken, parseCsv, API } from '/web/api.js';
+import { ApiError, get, getAll, post, del, token, setToken, parseCsv, API } from '/web/api.js';
 import { lineChart, clearCharts, colourOf, shortNumber } from '/web/charts.js';
 import { drawMap } from '/web/map.js';
 
@@ -66,28 +66,37 @@ function clearErrors(slots = SLOTS) {
   for (const el of document.querySelectorAll('[aria-invalid="true"]')) el.removeAttribute('aria-invalid');
 }
 
+// Every invalid field the API names, each beside its slot (several in one slot: one line each).
 function showError(e, context) {
-  const slot = e instanceof ApiError ? slotFor(e.field, context) : context === 'scene' ? 'scene' : 'form';
-  const p = $(`err-${slot}`);
-  const field = e instanceof ApiError && e.field ? e.field : '';
-  p.textContent = '';
-  if (field) {
-    const code = document.createElement('code');
-    code.textContent = field;
-    p.append(code, document.createTextNode(': '));
-  }
-  p.append(document.createTextNode(e.message));
-  p.dataset.field = field;
-  p.dataset.status = e instanceof ApiError ? e.status : '';
-  const f = $(`field-${slot}`);
-  if (f) {
-    f.classList.add('invalid');
-    // The control the field names: the spacing input for a dp, else the slot's first text control.
-    const dp = (field === 'dp' || field.endsWith('.dp')) && !$('dp').hidden ? $('dp') : null;
-    const input = dp || f.querySelector('input:not([type=checkbox]):not([type=radio]):not([type=file]):not([hidden]), select, textarea');
-    if (input) {
-      input.setAttribute('aria-invalid', 'true');
-      input.setAttribute('aria-describedby', p.id);
+  const errors = e instanceof ApiError ? e.errors : [{ field: '', message: e.message }];
+  const started = new Set();
+  for (const { field = '', message } of errors) {
+    const slot = e instanceof ApiError ? slotFor(field, context) : context === 'scene' ? 'scene' : 'form';
+    const p = $(`err-${slot}`);
+    if (!started.has(slot)) {
+      started.add(slot);
+      p.textContent = '';
+      p.dataset.field = field;
+      p.dataset.status = e instanceof ApiError ? e.status : '';
+    } else {
+      p.append(document.createElement('br'));
+    }
+    if (field) {
+      const code = document.createElement('code');
+      code.textContent = field;
+      p.append(code, document.createTextNode(': '));
+    }
+    p.append(document.createTextNode(message));
+    const f = $(`field-${slot}`);
+    if (f) {
+      f.classList.add('invalid');
+      // The control the field names: the spacing input for a dp, else the slot's first text control.
+      const dp = (field === 'dp' || field.endsWith('.dp')) && !$('dp').hidden ? $('dp') : null;
+      const input = dp || f.querySelector('input:not([type=checkbox]):not([type=radio]):not([type=file]):not([hidden]), select, textarea');
+      if (input) {
+        input.setAttribute('aria-invalid', 'true');
+        input.setAttribute('aria-describedby', p.id);
+      }
     }
   }
 }
@@ -112,7 +121,7 @@ async function loadHealth() {
 }
 
 async function loadScenes(selectId) {
-  const { scenes } = await get('/scenes');
+  const scenes = await getAll('/scenes?limit=1000', 'scenes');
   state.scenes = scenes;
   const sel = $('scene-select');
   sel.replaceChildren();

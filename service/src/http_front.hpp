@@ -17,6 +17,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <httplib.h>
 
@@ -68,7 +69,17 @@ class HttpFront {
   std::unique_ptr<Impl> impl_;
 };
 
-// The JSON error body every refusal carries: {"error": {status, field, message}}.
-std::string error_body(int status, const std::string& field, const std::string& message);
+// Every refusal is an RFC 9457 problem document (application/problem+json, docs/service.md "Errors"):
+// {type, title, status, detail, instance, errors: [{field, message}]}. `type` is a URI per kind of problem
+// (problem_type), `instance` the request's path (left out when the request line was never read), `errors`
+// every invalid field (empty when the problem is not a field's). `extra`: further members (the budget's).
+inline constexpr const char* kProblemMediaType = "application/problem+json";
+struct FieldError {
+  std::string field, message;
+};
+std::string problem_type(int status, const std::string& field);
+std::string problem_title(int status, const std::string& field);
+std::string problem_body(int status, const std::string& instance, const std::vector<FieldError>& errors,
+                         const std::string& extra_json = {});
 
 }  // namespace runout::service

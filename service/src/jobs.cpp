@@ -281,21 +281,25 @@ std::optional<Job> JobQueue::get(int64_t id) const {
 }
 
 namespace {
-std::string where_clause(const std::optional<std::string>& status, const std::optional<int64_t>& sweep_id) {
+std::string where_clause(const std::optional<std::string>& status, const std::optional<int64_t>& sweep_id,
+                         const std::optional<int64_t>& after_id = std::nullopt) {
   std::string w;
-  if (status) w += " WHERE status = ?1";
-  if (sweep_id) w += std::string(w.empty() ? " WHERE" : " AND") + " sweep_id = ?2";
+  auto add = [&](const char* cond) { w += std::string(w.empty() ? " WHERE " : " AND ") + cond; };
+  if (status) add("status = ?1");
+  if (sweep_id) add("sweep_id = ?2");
+  if (after_id) add("id > ?5");
   return w;
 }
 }  // namespace
 
 std::vector<Job> JobQueue::list(const std::optional<std::string>& status, const std::optional<int64_t>& sweep_id,
-                                int64_t limit, int64_t offset) const {
+                                int64_t limit, int64_t offset, const std::optional<int64_t>& after_id) const {
   std::lock_guard lock(impl_->reader.mutex);
-  Stmt s(impl_->reader, "SELECT " + job_columns(false) + " FROM jobs" + where_clause(status, sweep_id) +
+  Stmt s(impl_->reader, "SELECT " + job_columns(false) + " FROM jobs" + where_clause(status, sweep_id, after_id) +
                             " ORDER BY id LIMIT ?3 OFFSET ?4");
   if (status) s.bind(1, *status);
   if (sweep_id) s.bind(2, *sweep_id);
+  if (after_id) s.bind(5, *after_id);
   s.bind(3, limit).bind(4, offset);
   std::vector<Job> out;
   while (s.step()) out.push_back(read_job(s));
@@ -309,6 +313,27 @@ int64_t JobQueue::count(const std::optional<std::string>& status, const std::opt
   if (sweep_id) s.bind(2, *sweep_id);
   s.step();
   return s.int64(0);
+}
+
+std::vector<SweepRow> JobQueue::list_sweeps(int64_t limit, const std::optional<int64_t>& before_id) const {
+  std::lock_guard lock(impl_->reader.mutex);
+  Stmt s(impl_->reader, std::string("SELECT ") + kSweepColumns + " FROM service_sweeps" +
+                            (before_id ? " WHERE id < ?2" : "") + " ORDER BY id DESC LIMIT ?1");
+  s.bind(1, limit);
+  if (before_id) s.bind(2, *before_id);
+  std::vector<SweepRow> out;
+  while (s.step()) out.push_back(read_sweep(s));
+  return out;
+}
+
+std::map<int64_t, std::map<std::string, int64_t>> JobQueue::sweep_job_counts(int64_t min_id, int64_t max_id) const {
+  std::lock_guard lock(impl_->reader.mutex);
+  Stmt s(impl_->reader,
+         "SELECT sweep_id, status, COUNT(*) FROM jobs WHERE sweep_id BETWEEN ?1 AND ?2 GROUP BY sweep_id, status");
+  s.bind(1, min_id).bind(2, max_id);
+  std::map<int64_t, std::map<std::string, int64_t>> out;
+  while (s.step()) out[s.int64(0)][s.text(1)] = s.int64(2);
+  return out;
 }
 
 std::map<std::string, int64_t> JobQueue::counts_by_status() const {
@@ -361,9 +386,12 @@ std::optional<SceneRow> JobQueue::get_scene(int64_t id) const {
   return SceneRow{s.int64(0), s.text(1), s.text(2), s.text(3), s.text(4), s.text(5)};
 }
 
-std::vector<SceneRow> JobQueue::list_scenes() const {
+std::vector<SceneRow> JobQueue::list_scenes(int64_t limit, const std::optional<int64_t>& after_id) const {
   std::lock_guard lock(impl_->reader.mutex);
-  Stmt s(impl_->reader, "SELECT id, name, content_hash, '', structures, created_at FROM service_scenes ORDER BY id");
+  Stmt s(impl_->reader, std::string("SELECT id, name, content_hash, '', structures, created_at FROM service_scenes") +
+                            (after_id ? " WHERE id > ?2" : "") + " ORDER BY id LIMIT ?1");
+  s.bind(1, limit);
+  if (after_id) s.bind(2, *after_id);
   std::vector<SceneRow> out;
   while (s.step()) out.push_back({s.int64(0), s.text(1), s.text(2), s.text(3), s.text(4), s.text(5)});
   return out;

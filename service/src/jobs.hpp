@@ -114,12 +114,16 @@ class JobQueue {
   Backlog backlog(const std::string& submitter) const;
 
   std::optional<Job> get(int64_t id) const;
-  // Without scene_json, by id; status and sweep filter when given.
+  // Without scene_json, by id; status and sweep filter when given; after_id: only ids above it (a page's cursor).
   std::vector<Job> list(const std::optional<std::string>& status, const std::optional<int64_t>& sweep_id,
-                        int64_t limit, int64_t offset) const;
+                        int64_t limit, int64_t offset, const std::optional<int64_t>& after_id = std::nullopt) const;
   int64_t count(const std::optional<std::string>& status, const std::optional<int64_t>& sweep_id) const;
   std::map<std::string, int64_t> counts_by_status() const;
   std::optional<SweepRow> get_sweep(int64_t id) const;
+  // Sweeps newest first; before_id: only ids below it (a page's cursor).
+  std::vector<SweepRow> list_sweeps(int64_t limit, const std::optional<int64_t>& before_id) const;
+  // Jobs per status of the sweeps with ids in [min_id, max_id]: sweep id -> status -> count.
+  std::map<int64_t, std::map<std::string, int64_t>> sweep_job_counts(int64_t min_id, int64_t max_id) const;
   // The directory of a finished job that produced this run's outputs (for a job that reused a stored run).
   std::optional<std::string> out_dir_of_run(int64_t run_id) const;
 
@@ -127,7 +131,8 @@ class JobQueue {
   std::pair<SceneRow, bool> put_scene(const std::string& name, const std::string& content_hash,
                                       const std::string& scene_json, const std::string& structures_json);
   std::optional<SceneRow> get_scene(int64_t id) const;
-  std::vector<SceneRow> list_scenes() const;  // without scene_json
+  // Without scene_json, oldest first; after_id: only ids above it (a page's cursor).
+  std::vector<SceneRow> list_scenes(int64_t limit, const std::optional<int64_t>& after_id) const;
 
   // Worker side. claim: the oldest queued job, now running (attempts + 1), or nothing.
   std::optional<Job> claim(const std::string& out_root);

@@ -37,13 +37,19 @@ json parse_body(const std::string& body) {
   }
 }
 
-void refuse_unknown(const json& j, const std::string& path, const std::set<std::string>& allowed) {
+// Every unknown field of `j`, each its own error.
+void refuse_unknown(const json& j, const std::string& path, const std::set<std::string>& allowed, FieldErrors& errors) {
+  std::string list;
+  for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
   for (auto it = j.begin(); it != j.end(); ++it)
-    if (!allowed.count(it.key())) {
-      std::string list;
-      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-      throw ApiError(422, path.empty() ? it.key() : path + "." + it.key(), "unknown field (accepted: " + list + ")");
-    }
+    if (!allowed.count(it.key()))
+      errors.add(ApiError(422, path.empty() ? it.key() : path + "." + it.key(), "unknown field (accepted: " + list + ")"));
+}
+
+void refuse_unknown(const json& j, const std::string& path, const std::set<std::string>& allowed) {
+  FieldErrors errors;
+  refuse_unknown(j, path, allowed, errors);
+  errors.raise();
 }
 
 std::string at(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
@@ -358,6 +364,29 @@ void check_json_depth(const std::string& body, const std::string& field) {
   }
 }
 
+void FieldErrors::add(const ApiError& e) {
+  auto keep = [&](const ApiError& one) {
+    if (errors_.size() < kMaxListed) errors_.push_back(one);
+    else ++unlisted_;
+  };
+  if (e.errors.empty()) keep(e);
+  for (const auto& [field, message] : e.errors) keep(ApiError(e.status, field, message));
+}
+
+void FieldErrors::raise() const {
+  if (errors_.empty()) return;
+  int status = errors_.front().status;
+  for (const auto& e : errors_)
+    if (e.status != status && e.status == 422) status = 422;
+  ApiError out(status, errors_.front().field, errors_.front().what());
+  if (errors_.size() > 1)
+    for (const auto& e : errors_) out.errors.emplace_back(e.field, e.what());
+  if (unlisted_ > 0)
+    out.errors.emplace_back("(errors)", "and " + std::to_string(unlisted_) + " more invalid fields, not listed (at most " +
+                                            std::to_string(kMaxListed) + " are)");
+  throw out;
+}
+
 void check_idempotency_key(const std::string& key, const std::string& field) {
   const bool ok = !key.empty() && key.size() <= 200 &&
                   std::all_of(key.begin(), key.end(), [](char c) { return c > 0x20 && c < 0x7f; });
@@ -397,92 +426,135 @@ NewScene parse_scene_request(const std::string& body, const Limits& limits) {
 JobSpec parse_job_request(const std::string& body, const Limits& limits, const JobQueue& queue,
                           std::optional<std::string>& body_key) {
   const json j = parse_body(body);
-  refuse_unknown(j, "", {"scene", "base", "scene_id", "structures", "variant", "fidelity", "idempotency_key"});
-  body_key = parse_key(j);
+  // The envelope's fields are checked together (every invalid one is reported); the scene after them.
+  FieldErrors errors;
+  refuse_unknown(j, "", {"scene", "base", "scene_id", "structures", "variant", "fidelity", "idempotency_key"}, errors);
+  errors.check([&] { body_key = parse_key(j); });
+  Fidelity fidelity;
+  errors.check([&] { fidelity = parse_fidelity(j, "fidelity"); });
   const bool plain = j.contains("scene");
-  if (plain && (j.contains("base") || j.contains("scene_id")))
-    throw ApiError(422, "scene", "give one of scene (a complete scene), base (a base scene) or scene_id");
-  if (plain && (j.contains("structures") || j.contains("variant")))
-    throw ApiError(422, j.contains("structures") ? "structures" : "variant",
-                   "a layout goes with base or scene_id, not with a complete scene");
-  const Fidelity fidelity = parse_fidelity(j, "fidelity");
   if (plain) {
-    if (!j["scene"].is_object()) throw ApiError(422, "scene", "must be a scene (a JSON object)");
+    errors.check([&] {
+      if (j.contains("base") || j.contains("scene_id"))
+        throw ApiError(422, "scene", "give one of scene (a complete scene), base (a base scene) or scene_id");
+      if (!j["scene"].is_object()) throw ApiError(422, "scene", "must be a scene (a JSON object)");
+    });
+    for (const char* layout_field : {"structures", "variant"})
+      if (j.contains(layout_field))
+        errors.add(ApiError(422, layout_field, "a layout goes with base or scene_id, not with a complete scene"));
+    errors.raise();
     check_resolvable(j["scene"], "scene");
     return make_job(j["scene"], "scene", std::nullopt, "", fidelity, limits);
   }
-  const Base b = base_of(j, "base", queue);
-  const auto cands = candidates(b.scene);
-  std::optional<std::vector<std::string>> layout;
-  if (j.contains("structures")) layout = parse_structures(j["structures"], "structures", cands);
+  std::optional<Base> b;
+  errors.check([&] { b = base_of(j, "base", queue); });
   std::string variant;
-  if (j.contains("variant")) {
-    check_label(j["variant"], "variant");
-    variant = j["variant"].get<std::string>();
-  } else {
+  if (j.contains("variant")) errors.check([&] {
+      check_label(j["variant"], "variant");
+      variant = j["variant"].get<std::string>();
+    });
+  std::optional<std::vector<std::string>> layout;
+  if (b && j.contains("structures"))  // a layout is checked against its base's candidates
+    errors.check([&] { layout = parse_structures(j["structures"], "structures", candidates(b->scene)); });
+  errors.raise();
+  const auto cands = candidates(b->scene);
+  if (!j.contains("variant")) {
     const auto& s = layout ? *layout : cands;
     for (const auto& n : s) variant += (variant.empty() ? "" : "+") + n;
     if (variant.empty()) variant = "none";
     if (!label_ok(variant)) variant = "layout";
   }
   if (!layout) layout = cands;
-  JobSpec spec = make_job(b.scene, b.path, layout, variant, fidelity, limits);
-  spec.scene_id = b.scene_id;
+  JobSpec spec = make_job(b->scene, b->path, layout, variant, fidelity, limits);
+  spec.scene_id = b->scene_id;
   return spec;
 }
+
+namespace {
+
+// A sweep's factorial design: 2^n layouts of 1 to 10 candidate structures.
+std::vector<SweepVariant> parse_factorial(const json& f, const std::vector<std::string>& cands, FieldErrors& errors) {
+  if (!f.is_object()) {
+    errors.add(ApiError(422, "factorial", "must be an object {structures, prefix}"));
+    return {};
+  }
+  refuse_unknown(f, "factorial", {"structures", "prefix"}, errors);
+  std::vector<std::string> names;
+  const bool names_ok = errors.check([&] {
+    if (!f.contains("structures")) throw ApiError(422, "factorial.structures", "missing (required: 1 to 10 structure names)");
+    names = parse_structures(f["structures"], "factorial.structures", cands);
+    if (names.empty() || names.size() > 10)
+      throw ApiError(422, "factorial.structures", "must name 1 to 10 structures (2^n jobs, at most 1024)");
+  });
+  std::string prefix = "G";
+  if (f.contains("prefix")) errors.check([&] {
+      check_label(f["prefix"], "factorial.prefix");
+      prefix = f["prefix"].get<std::string>();
+      if (prefix.size() > 32) throw ApiError(422, "factorial.prefix", "must be 1 to 32 characters");
+    });
+  return names_ok ? factorial_variants(names, prefix) : std::vector<SweepVariant>{};
+}
+
+// A sweep's explicit layouts: 1 to 1024 {name, structures}, every entry's errors reported.
+std::vector<SweepVariant> parse_variants(const json& vs, const std::vector<std::string>& cands, FieldErrors& errors) {
+  if (!vs.is_array() || vs.empty() || vs.size() > kMaxVariants) {
+    errors.add(ApiError(422, "variants", "must be an array of 1 to " + std::to_string(kMaxVariants) + " {name, structures}"));
+    return {};
+  }
+  std::vector<SweepVariant> variants;
+  std::set<std::string> seen;
+  for (size_t k = 0; k < vs.size(); ++k) {
+    const std::string path = "variants[" + std::to_string(k) + "]";
+    if (!vs[k].is_object()) {
+      errors.add(ApiError(422, path, "must be an object {name, structures}"));
+      continue;
+    }
+    refuse_unknown(vs[k], path, {"name", "structures"}, errors);
+    SweepVariant v;
+    errors.check([&] {
+      if (!vs[k].contains("name")) throw ApiError(422, path + ".name", "missing (required: the variant's name)");
+      check_label(vs[k]["name"], path + ".name");
+      v.name = vs[k]["name"].get<std::string>();
+      if (!seen.insert(v.name).second) throw ApiError(422, path + ".name", "duplicate variant name '" + v.name + "'");
+    });
+    if (vs[k].contains("structures"))
+      errors.check([&] { v.structures = parse_structures(vs[k]["structures"], path + ".structures", cands); });
+    variants.push_back(v);
+  }
+  return variants;
+}
+
+}  // namespace
 
 NewSweep parse_sweep_request(const std::string& body, const Limits& limits, const JobQueue& queue,
                              std::optional<std::string>& body_key) {
   const json j = parse_body(body);
-  refuse_unknown(j, "", {"name", "base", "scene_id", "fidelity", "variants", "factorial", "idempotency_key"});
-  body_key = parse_key(j);
+  // The envelope's fields are checked together (every invalid one is reported); each layout's scene after them.
+  FieldErrors errors;
+  refuse_unknown(j, "", {"name", "base", "scene_id", "fidelity", "variants", "factorial", "idempotency_key"}, errors);
+  errors.check([&] { body_key = parse_key(j); });
   NewSweep out;
   out.name = "sweep";
-  if (j.contains("name")) {
-    check_label(j["name"], "name");
-    out.name = j["name"].get<std::string>();
-  }
-  const Fidelity fidelity = parse_fidelity(j, "fidelity");
+  if (j.contains("name")) errors.check([&] {
+      check_label(j["name"], "name");
+      out.name = j["name"].get<std::string>();
+    });
+  Fidelity fidelity;
+  errors.check([&] { fidelity = parse_fidelity(j, "fidelity"); });
   out.fidelity = fidelity.dp ? "custom" : fidelity.name;
-  const Base b = base_of(j, "base", queue);
-  out.scene_id = b.scene_id;
-  const auto cands = candidates(b.scene);
-  if (j.contains("variants") == j.contains("factorial"))
-    throw ApiError(422, "variants", "give exactly one of variants (explicit layouts) or factorial (all subsets)");
+  std::optional<Base> base;
+  errors.check([&] { base = base_of(j, "base", queue); });
+  // Layouts name the base's candidates: they are checked once the base is valid.
   std::vector<SweepVariant> variants;
-  if (j.contains("factorial")) {
-    const json& f = j["factorial"];
-    if (!f.is_object()) throw ApiError(422, "factorial", "must be an object {structures, prefix}");
-    refuse_unknown(f, "factorial", {"structures", "prefix"});
-    if (!f.contains("structures")) throw ApiError(422, "factorial.structures", "missing (required: 1 to 10 structure names)");
-    const auto names = parse_structures(f["structures"], "factorial.structures", cands);
-    if (names.empty() || names.size() > 10)
-      throw ApiError(422, "factorial.structures", "must name 1 to 10 structures (2^n jobs, at most 1024)");
-    std::string prefix = "G";
-    if (f.contains("prefix")) {
-      check_label(f["prefix"], "factorial.prefix");
-      prefix = f["prefix"].get<std::string>();
-      if (prefix.size() > 32) throw ApiError(422, "factorial.prefix", "must be 1 to 32 characters");
-    }
-    variants = factorial_variants(names, prefix);
-  } else {
-    const json& vs = j["variants"];
-    if (!vs.is_array() || vs.empty() || vs.size() > kMaxVariants)
-      throw ApiError(422, "variants", "must be an array of 1 to " + std::to_string(kMaxVariants) + " {name, structures}");
-    std::set<std::string> seen;
-    for (size_t k = 0; k < vs.size(); ++k) {
-      const std::string path = "variants[" + std::to_string(k) + "]";
-      if (!vs[k].is_object()) throw ApiError(422, path, "must be an object {name, structures}");
-      refuse_unknown(vs[k], path, {"name", "structures"});
-      if (!vs[k].contains("name")) throw ApiError(422, path + ".name", "missing (required: the variant's name)");
-      check_label(vs[k]["name"], path + ".name");
-      SweepVariant v;
-      v.name = vs[k]["name"].get<std::string>();
-      if (!seen.insert(v.name).second) throw ApiError(422, path + ".name", "duplicate variant name '" + v.name + "'");
-      if (vs[k].contains("structures")) v.structures = parse_structures(vs[k]["structures"], path + ".structures", cands);
-      variants.push_back(v);
-    }
-  }
+  if (j.contains("variants") == j.contains("factorial"))
+    errors.add(ApiError(422, "variants", "give exactly one of variants (explicit layouts) or factorial (all subsets)"));
+  else if (base && j.contains("factorial"))
+    variants = parse_factorial(j["factorial"], candidates(base->scene), errors);
+  else if (base)
+    variants = parse_variants(j["variants"], candidates(base->scene), errors);
+  errors.raise();
+  const Base& b = *base;
+  out.scene_id = b.scene_id;
   for (size_t k = 0; k < variants.size(); ++k) {
     const std::string path = b.path.empty() ? "variants[" + std::to_string(k) + "]" : b.path;
     JobSpec spec;

@@ -21,8 +21,41 @@ struct ApiError : std::runtime_error {
   std::string field;
   std::vector<std::pair<std::string, std::string>> headers;  // sent with the error (Retry-After)
   std::string budget_json;  // a JSON object added to the body as "budget" (429 over the work budget)
+  // Every invalid field, {field, message}, when a request's fields were checked together (FieldErrors); empty:
+  // just this one. The first is `field` and what().
+  std::vector<std::pair<std::string, std::string>> errors;
   ApiError(int status_code, std::string field_name, const std::string& message)
       : std::runtime_error(message), status(status_code), field(std::move(field_name)) {}
+};
+
+// Collects the errors of a request's own fields, so that one answer lists every invalid field instead of the
+// first (the problem document's `errors`). A check that depends on another (a layout on its base scene) runs
+// only when that one passed; a scene's own validation (parse_scene) still stops at its first error.
+class FieldErrors {
+ public:
+  // Runs `check`; an ApiError it throws is recorded instead of propagating. True when it passed.
+  template <class Check>
+  bool check(Check&& check) {
+    try {
+      check();
+      return true;
+    } catch (const ApiError& e) {
+      add(e);
+      return false;
+    }
+  }
+  void add(const ApiError& e);
+  bool empty() const { return errors_.empty(); }
+  // At most this many are listed (a body of a million unknown keys must not make a bigger answer); the rest
+  // are counted in a last entry, "(errors)".
+  static constexpr size_t kMaxListed = 100;
+  // Throws one ApiError carrying every error recorded (none: returns). Its status is the first error's, or
+  // 422 when the errors differ in status and one is 422 (a body whose content is wrong).
+  void raise() const;
+
+ private:
+  std::vector<ApiError> errors_;
+  size_t unlisted_ = 0;
 };
 
 // Arrays and objects may nest at most this deep in a request body (422 beyond); checked on the bytes before

@@ -1,18 +1,35 @@
-// Routes: GET /compare: stored metrics of done jobs side by side (server_impl.hpp, docs/service.md).
+// Routes: GET /compare: stored metrics of done jobs (listed, or a sweep's) side by side (server_impl.hpp, docs/service.md).
 #include "server_impl.hpp"
 
 namespace runout::service {
 
 void Server::Impl::routes_compare() {
   add("/compare", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
-    only_params(req, {"jobs", "baseline"});
-    if (!req.has_param("jobs")) throw ApiError(400, "jobs", "missing (required: 1 to 50 job ids separated by commas)");
+    FieldErrors errors;
+    only_params(req, {"jobs", "sweep", "baseline"}, errors);
     std::vector<int64_t> ids;
-    std::stringstream ss(req.get_param_value("jobs"));
-    for (std::string part; std::getline(ss, part, ',');) ids.push_back(int_param("jobs", part, 1, INT64_MAX / 2));
-    if (ids.empty() || ids.size() > 50) throw ApiError(400, "jobs", "must list 1 to 50 job ids separated by commas");
-    const int64_t base_id =
-        req.has_param("baseline") ? int_param("baseline", req.get_param_value("baseline"), 1, INT64_MAX / 2) : ids.front();
+    std::optional<int64_t> sweep;
+    if (req.has_param("jobs") == req.has_param("sweep"))
+      errors.add(ApiError(400, "jobs", "give one of jobs (1 to 50 job ids separated by commas) or sweep (a sweep's id)"));
+    else if (req.has_param("jobs"))
+      errors.check([&] {
+        std::stringstream ss(req.get_param_value("jobs"));
+        for (std::string part; std::getline(ss, part, ',');) ids.push_back(int_param("jobs", part, 1, INT64_MAX / 2));
+        if (ids.empty() || ids.size() > 50) throw ApiError(400, "jobs", "must list 1 to 50 job ids separated by commas");
+      });
+    else
+      errors.check([&] { sweep = int_param("sweep", req.get_param_value("sweep"), 1, INT64_MAX / 2); });
+    std::optional<int64_t> baseline;
+    if (req.has_param("baseline"))
+      errors.check([&] { baseline = int_param("baseline", req.get_param_value("baseline"), 1, INT64_MAX / 2); });
+    errors.raise();
+    if (sweep) {  // every job of the sweep, its first variant the default baseline
+      if (!queue->get_sweep(*sweep)) throw ApiError(404, "sweep", "no sweep with id " + std::to_string(*sweep));
+      for (const auto& j : queue->list(std::nullopt, *sweep, 100000, 0)) ids.push_back(j.id);
+      if (ids.empty()) throw ApiError(404, "sweep", "sweep " + std::to_string(*sweep) + " has no jobs");
+    }
+    const int64_t base_id = baseline ? *baseline : ids.front();
+    const char* jobs_field = sweep ? "sweep" : "jobs";
     auto run_for = [&](int64_t id, const char* field) {
       auto j = queue->get(id);
       if (!j) throw ApiError(404, field, "no job with id " + std::to_string(id));
@@ -25,7 +42,7 @@ void Server::Impl::routes_compare() {
     for (int64_t id : ids) {
       if (id == base_id) continue;
       job_ids.push_back(id);
-      runs.push_back(run_for(id, "jobs"));
+      runs.push_back(run_for(id, jobs_field));
     }
     const Comparison c = compare_runs(*store, runs, base_run);
     auto num = [](const std::optional<double>& v) -> json { return v ? json(*v) : json(nullptr); };

@@ -49,7 +49,8 @@ void Server::Impl::routes_health() {
     res.status = 200;
     res.set_content(scene_schema().dump(), "application/schema+json");
   });
-  add("/openapi.json", "GET", [](const httplib::Request&, httplib::Response& res, const std::smatch&) {
+  add("/openapi.json", "GET", [](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
+    only_params(req, {});
     res.status = 200;
     res.set_content(openapi_json(), "application/json");
   });

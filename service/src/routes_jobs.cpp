@@ -19,24 +19,37 @@ void Server::Impl::routes_jobs() {
     send_json(res, created ? 201 : 200, job_json(job, false));
   });
   add("/jobs", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
-    only_params(req, {"status", "sweep", "limit", "offset"});
+    // Every invalid parameter is reported; an unknown sweep (404) only once the parameters are valid.
+    FieldErrors errors;
+    only_params(req, {"status", "sweep", "limit", "offset", "cursor"}, errors);
     std::optional<std::string> status;
     std::optional<int64_t> sweep;
-    if (req.has_param("status")) {
-      status = req.get_param_value("status");
-      if (!kStates.count(*status))
-        throw ApiError(400, "status", "unknown status '" + status->substr(0, 40) +
-                                          "' (accepted: queued, running, done, failed, cancelled)");
-    }
-    if (req.has_param("sweep")) {
-      sweep = int_param("sweep", req.get_param_value("sweep"), 1, INT64_MAX / 2);
-      if (!queue->get_sweep(*sweep)) throw ApiError(404, "sweep", "no sweep with id " + std::to_string(*sweep));
-    }
-    const int64_t limit = req.has_param("limit") ? int_param("limit", req.get_param_value("limit"), 1, 10000) : 1000;
-    const int64_t offset = req.has_param("offset") ? int_param("offset", req.get_param_value("offset"), 0, INT64_MAX / 2) : 0;
+    if (req.has_param("status"))
+      errors.check([&] {
+        status = req.get_param_value("status");
+        if (!kStates.count(*status))
+          throw ApiError(400, "status", "unknown status '" + status->substr(0, 40) +
+                                            "' (accepted: queued, running, done, failed, cancelled)");
+      });
+    if (req.has_param("sweep"))
+      errors.check([&] { sweep = int_param("sweep", req.get_param_value("sweep"), 1, INT64_MAX / 2); });
+    const PageRequest page = page_request(req, 1000, 10000, errors);
+    int64_t offset = 0;
+    if (req.has_param("offset"))
+      errors.check([&] {
+        offset = int_param("offset", req.get_param_value("offset"), 0, INT64_MAX / 2);
+        if (page.cursor) throw ApiError(400, "offset", "given with cursor (accepted: one of the two)");
+      });
+    errors.raise();
+    if (sweep && !queue->get_sweep(*sweep)) throw ApiError(404, "sweep", "no sweep with id " + std::to_string(*sweep));
+    auto rows = queue->list(status, sweep, page.limit + 1, offset, page.cursor);  // one more: a next page?
+    const std::optional<int64_t> next_key = trim_page(rows, page.limit);
     json list = json::array();
-    for (const auto& j : queue->list(status, sweep, limit, offset)) list.push_back(job_json(j, false));
-    send_json(res, 200, {{"total", queue->count(status, sweep)}, {"limit", limit}, {"offset", offset}, {"jobs", list}});
+    for (const auto& j : rows) list.push_back(job_json(j, false));
+    const json next = next_page(req, res, next_key);
+    send_json(res, 200,
+              {{"total", queue->count(status, sweep)}, {"limit", page.limit}, {"offset", offset}, {"jobs", list},
+               {"next", next}});
   });
   add(R"(/jobs/(\d{1,18}))", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
     only_params(req, {});

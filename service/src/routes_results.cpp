@@ -37,16 +37,21 @@ void Server::Impl::routes_results() {
           throw ApiError(404, "name", "job " + m[1].str() + " has no series '" + name + "' (available: " + list + ")");
         }
         res.status = 200;
-        res.set_content(*csv, "text/csv");
+        res.set_header("Content-Disposition", attachment("job-" + m[1].str() + "-" + name + ".csv"));
+        res.set_content(*csv, "text/csv; charset=utf-8; header=present");
       });
-  auto raster = [this](const std::string& id, const std::string& file, httplib::Response& res, const char* type) {
+  // A file of the run's rasters/ folder; `download`: sent as an attachment named after the job.
+  auto raster = [this](const std::string& id, const std::string& file, httplib::Response& res, const char* type,
+                       bool download) {
     const Job j = require_job(id);
     (void)run_of(j);
     const fs::path p = out_dir_of(j) / "rasters" / file;
     if (!fs::is_regular_file(p))
-      throw ApiError(404, "name", "job " + id + " has no raster '" + file +
-                                      "' (rasters exist for terrain scenes: max_depth, max_speed, deposit_depth; map.png)");
+      throw ApiError(404, "name", "job " + id + " has no file '" + file +
+                                      "' (terrain runs have the rasters max_depth, max_speed, deposit_depth, max_hv, "
+                                      "arrival_time, max_pressure, intensity, the vectors hazard.gpkg and map.png)");
     res.status = 200;
+    if (download) res.set_header("Content-Disposition", attachment("job-" + id + "-" + file));
     res.set_content(read_file(p), type);
   };
   add(R"(/jobs/(\d{1,18})/rasters/(.+)\.tif)", "GET",
@@ -54,12 +59,18 @@ void Server::Impl::routes_results() {
         only_params(req, {});
         if (!safe_file_name(m[2].str()))
           throw ApiError(400, "name", "raster name must be 1 to 64 of A-Z a-z 0-9 _ . - without '..'");
-        raster(m[1].str(), m[2].str() + ".tif", res, "image/tiff");
+        raster(m[1].str(), m[2].str() + ".tif", res, "image/tiff; application=geotiff", true);
       });
   add(R"(/jobs/(\d{1,18})/map\.png)", "GET",
       [this, raster](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
         only_params(req, {});
-        raster(m[1].str(), "max_depth.png", res, "image/png");
+        raster(m[1].str(), "max_depth.png", res, "image/png", false);
+      });
+  // The inundated area and the intensity classes as polygons (the run's rasters/hazard.gpkg).
+  add(R"(/jobs/(\d{1,18})/vectors/hazard\.gpkg)", "GET",
+      [raster](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+        only_params(req, {});
+        raster(m[1].str(), "hazard.gpkg", res, "application/geopackage+sqlite3", true);
       });
   // Where map.png lies on the ground, and what to draw over it: the rasters' extent and CRS, and the map geometry
   // of the job's structures, protected zones, release and cross-sections (working CRS, metres), both from

@@ -15,10 +15,16 @@ void Server::Impl::routes_scenes() {
     send_json(res, created ? 201 : 200, scene_json(row, false));
   });
   add("/scenes", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
-    only_params(req, {});
+    FieldErrors errors;
+    only_params(req, {"limit", "cursor"}, errors);
+    const PageRequest page = page_request(req, 100, 1000, errors);
+    errors.raise();
+    auto rows = queue->list_scenes(page.limit + 1, page.cursor);  // one more: is there a next page?
+    const std::optional<int64_t> next_key = trim_page(rows, page.limit);
     json list = json::array();
-    for (const auto& s : queue->list_scenes()) list.push_back(scene_json(s, false));
-    send_json(res, 200, {{"scenes", list}});
+    for (const auto& s : rows) list.push_back(scene_json(s, false));
+    const json next = next_page(req, res, next_key);
+    send_json(res, 200, {{"scenes", list}, {"limit", page.limit}, {"next", next}});
   });
   add(R"(/scenes/(\d{1,18}))", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
     only_params(req, {});

@@ -1,7 +1,35 @@
-// Routes: POST /sweeps: a sweep and its jobs in one transaction (server_impl.hpp, docs/service.md).
+// Routes: /sweeps: submit a sweep and its jobs in one transaction, list the sweeps, follow one (server_impl.hpp,
+// docs/service.md).
 #include "server_impl.hpp"
 
 namespace runout::service {
+
+namespace {
+
+// A sweep with its jobs counted by status. `status`: running while a job is queued or running, done when
+// every job is done, incomplete when all finished but some failed or were cancelled.
+json sweep_summary(const SweepRow& s, const std::map<std::string, int64_t>& counts) {
+  json by_status = {{"queued", 0}, {"running", 0}, {"done", 0}, {"failed", 0}, {"cancelled", 0}};
+  int64_t total = 0;
+  for (const auto& [status, n] : counts) {
+    by_status[status] = n;
+    total += n;
+  }
+  const int64_t active = by_status["queued"].get<int64_t>() + by_status["running"].get<int64_t>();
+  const std::string status = active > 0 ? "running" : by_status["done"].get<int64_t>() == total ? "done" : "incomplete";
+  const std::string self = kPrefix + "/sweeps/" + std::to_string(s.id);
+  return {{"id", s.id},
+          {"name", s.name},
+          {"scene_id", s.scene_id ? json(*s.scene_id) : json(nullptr)},
+          {"fidelity", s.fidelity},
+          {"created_at", s.created_at},
+          {"status", status},
+          {"jobs_total", total},
+          {"jobs_by_status", by_status},
+          {"links", {{"self", self}, {"jobs", kPrefix + "/jobs?sweep=" + std::to_string(s.id)}}}};
+}
+
+}  // namespace
 
 void Server::Impl::routes_sweeps() {
   add("/sweeps", "POST", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
@@ -34,7 +62,7 @@ void Server::Impl::routes_sweeps() {
     }
     json jobs = json::array();
     for (const auto& j : queue->list(std::nullopt, row.id, 10000, 0)) jobs.push_back(job_json(j, false));
-    res.set_header("Location", kPrefix + "/jobs?sweep=" + std::to_string(row.id));
+    res.set_header("Location", kPrefix + "/sweeps/" + std::to_string(row.id));
     send_json(res, created ? 201 : 200,
               {{"id", row.id},
                {"name", row.name},
@@ -42,6 +70,54 @@ void Server::Impl::routes_sweeps() {
                {"fidelity", row.fidelity},
                {"created_at", row.created_at},
                {"jobs", jobs}});
+  });
+  // The sweeps submitted, newest first, a page at a time.
+  add("/sweeps", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
+    FieldErrors errors;
+    only_params(req, {"limit", "cursor"}, errors);
+    const PageRequest page = page_request(req, 100, 1000, errors);
+    errors.raise();
+    auto rows = queue->list_sweeps(page.limit + 1, page.cursor);  // one more: is there a next page?
+    const std::optional<int64_t> next_key = trim_page(rows, page.limit);
+    json list = json::array();
+    if (!rows.empty()) {
+      const auto counts = queue->sweep_job_counts(rows.back().id, rows.front().id);
+      for (const auto& s : rows) {
+        auto it = counts.find(s.id);
+        list.push_back(sweep_summary(s, it == counts.end() ? std::map<std::string, int64_t>{} : it->second));
+      }
+    }
+    const json next = next_page(req, res, next_key);
+    send_json(res, 200, {{"sweeps", list}, {"limit", page.limit}, {"next", next}});
+  });
+  // One sweep: its variants with their jobs' status and progress; once every job is done, the comparison.
+  add(R"(/sweeps/(\d{1,18}))", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+    only_params(req, {});
+    const int64_t id = std::stoll(m[1].str());
+    const auto row = queue->get_sweep(id);
+    if (!row) throw ApiError(404, "id", "no sweep with id " + m[1].str());
+    const auto counts = queue->sweep_job_counts(id, id);
+    json out = sweep_summary(*row, counts.count(id) ? counts.at(id) : std::map<std::string, int64_t>{});
+    json variants = json::array();
+    double fraction = 0;
+    const auto jobs = queue->list(std::nullopt, id, 100000, 0);  // at most 1024 (a sweep's variants)
+    for (const auto& j : jobs) {
+      const json jj = job_json(j, false);
+      const bool finished = j.status == "done" || j.status == "failed" || j.status == "cancelled";
+      fraction += finished ? 1.0 : jj["progress"]["fraction"].get<double>();
+      variants.push_back({{"variant", j.variant},
+                          {"job", j.id},
+                          {"status", j.status},
+                          {"progress", jj["progress"]},
+                          {"run_id", jj["run_id"]},
+                          {"error", j.error},
+                          {"links", jj["links"]}});
+    }
+    out["progress"] = {{"fraction", jobs.empty() ? 1.0 : fraction / static_cast<double>(jobs.size())}};
+    out["variants"] = variants;
+    out["links"]["compare"] =
+        out["status"] == "done" && !jobs.empty() ? json(kPrefix + "/compare?sweep=" + m[1].str()) : json(nullptr);
+    send_json(res, 200, out);
   });
 }
 

@@ -80,12 +80,11 @@ void Server::Impl::dispatch(const httplib::Request& req, httplib::Response& res)
   } catch (const ApiError& e) {
     if (e.status == 401) res.set_header("WWW-Authenticate", "Bearer");
     for (const auto& [k, v] : e.headers) res.set_header(k, v);
-    json body = {{"error", {{"status", e.status}, {"field", e.field}, {"message", scrub(e.what())}}}};
-    if (!e.budget_json.empty()) body["budget"] = json::parse(e.budget_json);
-    send_json(res, e.status, body);
+    send_problem(res, req.path, e, [this](const std::string& m) { return scrub(m); });
   } catch (const std::exception& e) {
     spdlog::error("{} {}: {}", req.method, req.path, e.what());
-    send_error(res, 500, "", scrub(std::string("internal error: ") + e.what()));
+    send_problem(res, req.path, ApiError(500, "", std::string("internal error: ") + e.what()),
+                 [this](const std::string& m) { return scrub(m); });
   }
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   // Method, path and status only: never headers (the token) or bodies.

@@ -54,8 +54,16 @@ inline void send_json(httplib::Response& res, int status, const json& j) {
   res.set_content(dump(j), "application/json");
 }
 
-inline void send_error(httplib::Response& res, int status, const std::string& field, const std::string& message) {
-  send_json(res, status, {{"error", {{"status", status}, {"field", field}, {"message", message}}}});
+// A refusal as an RFC 9457 problem document (http_front.hpp): every invalid field of `e` (one, or those a
+// FieldErrors collected) in `errors`, each message passed through `scrub`; the budget's object as `budget`.
+template <class Scrub>
+void send_problem(httplib::Response& res, const std::string& instance, const ApiError& e, Scrub&& scrub) {
+  std::vector<FieldError> errors;
+  if (e.errors.empty()) errors.push_back({e.field, scrub(e.what())});
+  for (const auto& [field, message] : e.errors) errors.push_back({field, scrub(message)});
+  const std::string extra = e.budget_json.empty() ? std::string() : json{{"budget", json::parse(e.budget_json)}}.dump();
+  res.status = e.status;
+  res.set_content(problem_body(e.status, instance, errors, extra), kProblemMediaType);
 }
 
 inline std::string lower(std::string s) {
@@ -122,14 +130,107 @@ inline int64_t int_param(const std::string& name, const std::string& v, int64_t 
   return x;
 }
 
-inline void only_params(const httplib::Request& req, const std::set<std::string>& allowed) {
+// Every unknown query parameter, each its own error, into `errors` (or thrown at once without).
+inline void only_params(const httplib::Request& req, const std::set<std::string>& allowed, FieldErrors& errors) {
+  std::string list;
+  for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
   for (const auto& [k, v] : req.params)
-    if (!allowed.count(k)) {
-      std::string list;
-      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-      throw ApiError(400, k, "unknown query parameter (accepted: " + (list.empty() ? std::string("none") : list) + ")");
-    }
+    if (!allowed.count(k))
+      errors.add(ApiError(400, k, "unknown query parameter (accepted: " + (list.empty() ? std::string("none") : list) + ")"));
 }
+inline void only_params(const httplib::Request& req, const std::set<std::string>& allowed) {
+  FieldErrors errors;
+  only_params(req, allowed, errors);
+  errors.raise();
+}
+
+// Lists come in pages (docs/service.md, "Lists"): `limit` items from an opaque `cursor` (the `next` of the
+// previous page), which is the key, an id, the page continues after: pages stay exact while items are added.
+// The cursor is base64url of "id:<key>", opaque to clients so that its form may change.
+inline std::string encode_cursor(int64_t key) {
+  static const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-_";
+  const std::string in = "id:" + std::to_string(key);
+  std::string out;
+  for (size_t i = 0; i < in.size(); i += 3) {
+    uint32_t n = static_cast<uint32_t>(static_cast<unsigned char>(in[i])) << 16;
+    if (i + 1 < in.size()) n |= static_cast<uint32_t>(static_cast<unsigned char>(in[i + 1])) << 8;
+    if (i + 2 < in.size()) n |= static_cast<unsigned char>(in[i + 2]);
+    const size_t chars = std::min<size_t>(4, in.size() - i + 1);
+    for (size_t k = 0; k < chars; ++k) out += abc[(n >> (18 - 6 * k)) & 63];
+  }
+  return out;
+}
+
+inline int64_t decode_cursor(const std::string& cursor) {
+  const ApiError bad(400, "cursor", "is not a cursor of this list (accepted: the `next` of a previous page, as it was given)");
+  if (cursor.empty() || cursor.size() > 40) throw bad;
+  std::string out;
+  uint32_t n = 0;
+  int bits = 0;
+  for (const char c : cursor) {
+    const int v = c >= 'A' && c <= 'Z' ? c - 'A' : c >= 'a' && c <= 'z' ? c - 'a' + 26 : c >= '0' && c <= '9' ? c - '0' + 52
+                : c == '-' ? 62 : c == '_' ? 63 : -1;
+    if (v < 0) throw bad;
+    n = (n << 6) | static_cast<uint32_t>(v);
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out += static_cast<char>((n >> bits) & 0xff);
+    }
+  }
+  const std::string digits = out.rfind("id:", 0) == 0 ? out.substr(3) : std::string();
+  if (digits.empty() || digits.size() > 18 || digits.find_first_not_of("0123456789") != std::string::npos) throw bad;
+  return std::stoll(digits);
+}
+
+struct PageRequest {
+  int64_t limit = 0;
+  std::optional<int64_t> cursor;  // the key the page continues after
+};
+
+// `limit` in [1, max_limit] (default_limit without it) and `cursor`; their errors into `errors`.
+inline PageRequest page_request(const httplib::Request& req, int64_t default_limit, int64_t max_limit,
+                                FieldErrors& errors) {
+  PageRequest p{default_limit, std::nullopt};
+  if (req.has_param("limit"))
+    errors.check([&] {
+      const std::string range = "an integer in [1, " + std::to_string(max_limit) + "]; default " +
+                                std::to_string(default_limit);
+      const std::string v = req.get_param_value("limit");
+      if (v.empty() || v.size() > 18 || v.find_first_not_of("0123456789") != std::string::npos)
+        throw ApiError(400, "limit", "must be " + range + " (got '" + v.substr(0, 20) + "')");
+      const int64_t x = std::stoll(v);
+      if (x < 1 || x > max_limit) throw ApiError(400, "limit", "must be " + range + " (got " + v + ")");
+      p.limit = x;
+    });
+  if (req.has_param("cursor")) errors.check([&] { p.cursor = decode_cursor(req.get_param_value("cursor")); });
+  return p;
+}
+
+// A page query fetches limit + 1 rows: the extra one only says that a next page exists. Drops it; the key the
+// next page continues after (the last row's id), or nothing on the last page.
+template <class Row>
+std::optional<int64_t> trim_page(std::vector<Row>& rows, int64_t limit) {
+  if (static_cast<int64_t>(rows.size()) <= limit) return std::nullopt;
+  rows.resize(static_cast<size_t>(limit));
+  return rows.back().id;
+}
+
+// The next page's URL (this request with `cursor` for `key` in place of cursor and offset) in the `Link`
+// header (RFC 8288) and as the list's `next`; null without a next page.
+inline json next_page(const httplib::Request& req, httplib::Response& res, const std::optional<int64_t>& key) {
+  if (!key) return nullptr;
+  httplib::Params params;
+  for (const auto& [k, v] : req.params)
+    if (k != "cursor" && k != "offset") params.emplace(k, v);
+  params.emplace("cursor", encode_cursor(*key));
+  const std::string url = req.path + "?" + httplib::detail::params_to_query_str(params);
+  res.set_header("Link", "<" + url + ">; rel=\"next\"");
+  return url;
+}
+
+// Content-Disposition for a download; names are made of safe_file_name characters, so no quoting is needed.
+inline std::string attachment(const std::string& filename) { return "attachment; filename=\"" + filename + "\""; }
 
 inline bool constant_time_equal(const std::string& a, const std::string& b) {
   unsigned char diff = a.size() == b.size() ? 0 : 1;
@@ -227,7 +328,7 @@ struct Server::Impl {
       return false;
     } catch (const ApiError& e) {
       res.set_header("WWW-Authenticate", "Bearer");
-      send_error(res, e.status, e.field, e.what());
+      send_problem(res, req.path, e, [](const std::string& m) { return m; });
       return true;
     }
   }

@@ -3,10 +3,6 @@
 // heads, duplicate Content-Length) use raw sockets; every wait is bounded (a few seconds per test).
 #include "service/service_harness.hpp"
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-
 #include <atomic>
 
 using namespace runout_test;
@@ -14,99 +10,6 @@ using namespace runout_test;
 namespace {
 
 const std::string kToken = "hostile-test-token";
-
-// A raw TCP connection to the server, optionally from another loopback address (127.0.0.2, ...): the
-// server counts connections per client address.
-class Raw {
- public:
-  Raw(int port, const std::string& from = "127.0.0.1") {
-    fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    sockaddr_in local{};
-    local.sin_family = AF_INET;
-    ::inet_pton(AF_INET, from.c_str(), &local.sin_addr);
-    if (::bind(fd_, reinterpret_cast<sockaddr*>(&local), sizeof local) != 0) throw std::runtime_error("bind " + from);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_port = htons(static_cast<uint16_t>(port));
-    ::inet_pton(AF_INET, "127.0.0.1", &addr.sin_addr);
-    ok_ = ::connect(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
-  }
-  ~Raw() { ::close(fd_); }
-  Raw(const Raw&) = delete;
-  Raw& operator=(const Raw&) = delete;
-  bool connected() const { return ok_; }
-  void shutdown_write() { ::shutdown(fd_, SHUT_WR); }
-  bool send(const std::string& s) {
-    size_t off = 0;
-    while (off < s.size()) {
-      const ssize_t n = ::send(fd_, s.data() + off, s.size() - off, MSG_NOSIGNAL);
-      if (n <= 0) return false;
-      off += static_cast<size_t>(n);
-    }
-    return true;
-  }
-  // Reads until one whole response (head and Content-Length body) has arrived, the peer closes, or the timeout.
-  // A response to HEAD (`head_only`) has a Content-Length but no body.
-  std::string response(std::chrono::milliseconds timeout = 5000ms, bool head_only = false) {
-    const auto end = std::chrono::steady_clock::now() + timeout;
-    while (std::chrono::steady_clock::now() < end) {
-      const size_t h = buf_.find("\r\n\r\n");
-      if (h != std::string::npos) {
-        std::smatch m;
-        const std::string head = buf_.substr(0, h);
-        const std::regex cl("Content-Length: ([0-9]+)", std::regex::icase);
-        const size_t len = !head_only && std::regex_search(head, m, cl) ? std::stoul(m[1].str()) : 0;
-        if (buf_.size() >= h + 4 + len) {
-          std::string r = buf_.substr(0, h + 4 + len);
-          buf_.erase(0, h + 4 + len);
-          return r;
-        }
-      }
-      if (!fill(end)) break;
-    }
-    std::string r = buf_;
-    buf_.clear();
-    return r;
-  }
-  // True when the server closes the connection (EOF or reset) before the timeout; what arrived is dropped.
-  bool closed_within(std::chrono::milliseconds timeout) {
-    const auto end = std::chrono::steady_clock::now() + timeout;
-    while (std::chrono::steady_clock::now() < end) {
-      pollfd p{fd_, POLLIN, 0};
-      if (::poll(&p, 1, 50) <= 0) continue;
-      char b[4096];
-      const ssize_t n = ::recv(fd_, b, sizeof b, 0);
-      if (n <= 0) return true;
-    }
-    return false;
-  }
-
- private:
-  bool fill(std::chrono::steady_clock::time_point end) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - std::chrono::steady_clock::now());
-    pollfd p{fd_, POLLIN, 0};
-    if (::poll(&p, 1, static_cast<int>(std::max<int64_t>(1, left.count()))) <= 0) return true;
-    char b[65536];
-    const ssize_t n = ::recv(fd_, b, sizeof b, 0);
-    if (n <= 0) return false;
-    buf_.append(b, static_cast<size_t>(n));
-    return true;
-  }
-  int fd_ = -1;
-  bool ok_ = false;
-  std::string buf_;
-};
-
-int status_of(const std::string& response) {
-  std::smatch m;
-  static const std::regex re(R"(^HTTP/1\.[01] ([0-9]{3}))");
-  return std::regex_search(response, m, re) ? std::stoi(m[1].str()) : 0;
-}
-
-json body_of(const std::string& response) {
-  const size_t h = response.find("\r\n\r\n");
-  return h == std::string::npos ? json() : json::parse(response.substr(h + 4), nullptr, false);
-}
 
 std::string post_head(const std::string& path, const std::string& extra) {
   return "POST /api/v1" + path + " HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n" + extra + "\r\n";
@@ -147,8 +50,8 @@ TEST_F(Hostile, DeeplyNestedBodyIsRefusedNamingTheLimit) {
            {"/jobs", "{\"scene\": " + std::string(65, '{') + std::string(65, '}') + "}"}}) {
     const Reply r = request("POST", "/api/v1" + path, body);
     ASSERT_EQ(r.status, 422) << path << ": " << r.text.substr(0, 300);
-    EXPECT_EQ(r.body.at("error").at("field"), "(body)");
-    EXPECT_NE(r.body.at("error").at("message").get<std::string>().find("64"), std::string::npos) << r.text;
+    EXPECT_EQ(first_error(r.body).at("field"), "(body)");
+    EXPECT_NE(first_error(r.body).at("message").get<std::string>().find("64"), std::string::npos) << r.text;
   }
   // Brackets inside strings do not count; 64 levels are accepted as far as nesting goes.
   const Reply in_string = post("/estimate", {{"scene", tiny_scene(std::string(100, '['))}});
@@ -169,7 +72,7 @@ TEST_F(Hostile, BodyLimitHoldsForEveryTransferCodingAndTheTokenComesFirst) {
     (void)c.send(chunked(big, 8192).substr(0, 70000 + 8 * 10));  // a little over the limit, never the end
     const std::string r = c.response();
     EXPECT_EQ(status_of(r), 413) << r.substr(0, 300);
-    EXPECT_NE(body_of(r).at("error").at("message").get<std::string>().find("65536"), std::string::npos);
+    EXPECT_NE(first_error(body_of(r)).at("message").get<std::string>().find("65536"), std::string::npos);
     EXPECT_TRUE(c.closed_within(3000ms));
   }
   {  // No token, 64 MiB announced and nothing sent: 401 at once, the body is never waited for.
@@ -191,7 +94,7 @@ TEST_F(Hostile, BodyLimitHoldsForEveryTransferCodingAndTheTokenComesFirst) {
     ASSERT_TRUE(c.send(post_head("/jobs", authz + "Content-Length: 3145728\r\n")));
     const std::string r = c.response(3000ms);
     EXPECT_EQ(status_of(r), 413) << r.substr(0, 300);
-    EXPECT_EQ(body_of(r).at("error").at("field"), "(body)");
+    EXPECT_EQ(first_error(body_of(r)).at("field"), "(body)");
   }
   {  // A compressed body could expand without bound once decoded: refused.
     Raw c(server_.port());
@@ -277,7 +180,7 @@ TEST_F(Hostile, SceneFilesMustResolveInsideTheSceneDirAndErrorsShowNoServerPaths
   for (const std::string dem : {"link.asc", "sub/dem.asc", "passwd.asc"}) {
     const Reply r = post("/estimate", with_dem(dem));
     EXPECT_EQ(r.status, 422) << dem << ": " << r.text.substr(0, 300);
-    EXPECT_EQ(r.body.at("error").at("field"), "base.terrain.dem") << dem;
+    EXPECT_EQ(first_error(r.body).at("field"), "base.terrain.dem") << dem;
     EXPECT_NE(r.text.find("outside the service's scene directory"), std::string::npos) << r.text.substr(0, 300);
   }
   const Reply ok = post("/estimate", with_dem("inside.asc"));
@@ -297,7 +200,7 @@ TEST_F(Hostile, QueriesMediaTypesKeysAndLengthsAreStrict) {
     const Reply r = get("/jobs?" + q);
     EXPECT_EQ(r.status, 400) << q << ": " << r.text;
   }
-  EXPECT_EQ(get("/jobs?limit=5=6").body.at("error").at("field"), "limit");
+  EXPECT_EQ(first_error(get("/jobs?limit=5=6").body).at("field"), "limit");
   EXPECT_NE(get("/jobs?limit=ten").text.find("[1, 10000]"), std::string::npos);
   EXPECT_EQ(get("/jobs?limit=5").status, 200);
 
@@ -317,7 +220,7 @@ TEST_F(Hostile, QueriesMediaTypesKeysAndLengthsAreStrict) {
   };
   const std::string r1 = raw_post("Idempotency-Key:\r\nContent-Length: " + std::to_string(body.size()) + "\r\n", body);
   EXPECT_EQ(status_of(r1), 400) << r1.substr(0, 300);
-  EXPECT_EQ(body_of(r1).at("error").at("field"), "Idempotency-Key");
+  EXPECT_EQ(first_error(body_of(r1)).at("field"), "Idempotency-Key");
   const std::string r2 = raw_post("Idempotency-Key: " + std::string(201, 'k') + "\r\nContent-Length: " +
                                       std::to_string(body.size()) + "\r\n", body);
   EXPECT_EQ(status_of(r2), 400);
@@ -328,7 +231,7 @@ TEST_F(Hostile, QueriesMediaTypesKeysAndLengthsAreStrict) {
   const std::string n = std::to_string(body.size());
   const std::string d1 = raw_post("Content-Length: " + n + "\r\nContent-Length: " + std::to_string(body.size() + 5) + "\r\n", body);
   EXPECT_EQ(status_of(d1), 400) << d1.substr(0, 300);
-  EXPECT_EQ(body_of(d1).at("error").at("field"), "Content-Length");
+  EXPECT_EQ(first_error(body_of(d1)).at("field"), "Content-Length");
   EXPECT_EQ(status_of(raw_post("Content-Length: " + n + "\r\nContent-Length: " + n + "\r\n", body)), 400);
   EXPECT_EQ(status_of(raw_post("Content-Length: " + n + "\r\nTransfer-Encoding: chunked\r\n", body)), 400);
   EXPECT_EQ(status_of(raw_post("Content-Length: -1\r\n", body)), 400);
@@ -380,8 +283,10 @@ TEST_F(Hostile, WorkBudgetRefusesWithRetryAfterPerTokenAndInAll) {
   EXPECT_EQ(submit("a2", kToken).status, 201);
   const Reply a3 = submit("a3", kToken);
   ASSERT_EQ(a3.status, 429) << a3.text;
-  EXPECT_EQ(a3.body.at("error").at("field"), "(budget)");
+  EXPECT_EQ(first_error(a3.body).at("field"), "(budget)");
   EXPECT_EQ(a3.body.at("budget").at("scope"), "per token");
+  EXPECT_EQ(a3.body.at("type"), "https://runout.invalid/problems/over-work-budget");
+  EXPECT_EQ(media_type(a3.headers), "application/problem+json");
   EXPECT_NEAR(a3.body.at("budget").at("limit_cpu_s").get<double>(), 2.5 * cost, 1e-6 * cost + 1e-9);
   bool retry_after = false;
   for (const auto& [k, v] : a3.headers) retry_after = retry_after || (k == "Retry-After" && std::stoi(v) >= 1);

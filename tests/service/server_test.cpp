@@ -244,8 +244,8 @@ TEST_F(Service, SweepOverAStoredTerrainSceneServesRastersAndTheMap) {
   // Layouts are checked when named: an unknown structure, and two candidates that overlap.
   const Reply unknown = post("/jobs", {{"scene_id", sid}, {"structures", {"FD_P1", "Dam9"}}});
   EXPECT_EQ(unknown.status, 422);
-  EXPECT_EQ(unknown.body.at("error").at("field"), "structures[1]");
-  EXPECT_NE(unknown.body.at("error").at("message").get<std::string>().find("RB2_P2"), std::string::npos);
+  EXPECT_EQ(first_error(unknown.body).at("field"), "structures[1]");
+  EXPECT_NE(first_error(unknown.body).at("message").get<std::string>().find("RB2_P2"), std::string::npos);
   const Reply overlap = post("/jobs", {{"scene_id", sid}, {"structures", {"FD_P1", "CD_P1"}}, {"fidelity", {{"dp", 0.06}}}});
   EXPECT_EQ(overlap.status, 422) << overlap.text;
 
@@ -268,12 +268,31 @@ TEST_F(Service, SweepOverAStoredTerrainSceneServesRastersAndTheMap) {
 
   // Rasters and the map: the files of the job's run directory, byte for byte.
   const fs::path out = dir_ / "runs" / "service" / ("job-" + std::to_string(c1));  // --runs DIR/runs
+  // Downloads carry their registered media type and a file name (Content-Disposition: attachment).
+  auto header = [](const Reply& r, const std::string& name) {
+    auto it = r.headers.find(name);
+    return it == r.headers.end() ? std::string() : it->second;
+  };
+  const std::string job_prefix = "job-" + std::to_string(c1) + "-";
   for (const std::string name : {"max_depth", "max_speed", "deposit_depth"}) {
     const Reply tif = request("GET", "/api/v1/jobs/" + std::to_string(c1) + "/rasters/" + name + ".tif");
     ASSERT_EQ(tif.status, 200) << name;
     EXPECT_EQ(tif.text, read_text(out / "rasters" / (name + ".tif"))) << name;
     EXPECT_EQ(tif.text.substr(0, 4), std::string("II*\0", 4));
+    EXPECT_EQ(header(tif, "Content-Type"), "image/tiff; application=geotiff");
+    EXPECT_EQ(header(tif, "Content-Disposition"), "attachment; filename=\"" + job_prefix + name + ".tif\"");
   }
+  // The hazard polygons: the run's rasters/hazard.gpkg, a GeoPackage (SQLite) file.
+  const Reply gpkg = request("GET", "/api/v1/jobs/" + std::to_string(c1) + "/vectors/hazard.gpkg");
+  ASSERT_EQ(gpkg.status, 200) << gpkg.text.substr(0, 300);
+  EXPECT_EQ(gpkg.text, read_text(out / "rasters" / "hazard.gpkg"));
+  EXPECT_EQ(gpkg.text.substr(0, 16), std::string("SQLite format 3\0", 16));
+  EXPECT_EQ(header(gpkg, "Content-Type"), "application/geopackage+sqlite3");
+  EXPECT_EQ(header(gpkg, "Content-Disposition"), "attachment; filename=\"" + job_prefix + "hazard.gpkg\"");
+  const Reply csv = request("GET", "/api/v1/jobs/" + std::to_string(c1) + "/series/run.csv");
+  ASSERT_EQ(csv.status, 200);
+  EXPECT_EQ(media_type(csv.headers), "text/csv");
+  EXPECT_EQ(header(csv, "Content-Disposition"), "attachment; filename=\"" + job_prefix + "run.csv\"");
   const Reply png = request("GET", "/api/v1/jobs/" + std::to_string(c1) + "/map.png");
   ASSERT_EQ(png.status, 200);
   EXPECT_EQ(png.text.substr(1, 3), "PNG");
@@ -326,7 +345,9 @@ TEST_F(Service, OpenApiDocumentDescribesEveryRoute) {
       {"/scenes/{id}", {"get"}},
       {"/jobs", {"get", "post"}},
       {"/jobs/{id}", {"get", "delete"}},
-      {"/sweeps", {"post"}},
+      {"/sweeps", {"get", "post"}},
+      {"/sweeps/{id}", {"get"}},
+      {"/jobs/{id}/vectors/hazard.gpkg", {"get"}},
       {"/estimate", {"post"}},
       {"/jobs/{id}/metrics", {"get"}},
       {"/jobs/{id}/series/{name}.csv", {"get"}},
@@ -344,7 +365,7 @@ TEST_F(Service, OpenApiDocumentDescribesEveryRoute) {
   }
   // Every route answers: an unknown id is 404 (not 405), a wrong method 405 with Allow.
   for (const std::string p : {"/scenes/9", "/jobs/9", "/jobs/9/metrics", "/jobs/9/series/run.csv", "/jobs/9/rasters/max_depth.tif",
-                              "/jobs/9/map.png", "/jobs/9/map.json"})
+                              "/jobs/9/map.png", "/jobs/9/map.json", "/sweeps/9", "/jobs/9/vectors/hazard.gpkg"})
     EXPECT_EQ(get(p).status, 404) << p;
   const Reply wrong = request("PUT", "/api/v1/sweeps", "{}");
   EXPECT_EQ(wrong.status, 405);

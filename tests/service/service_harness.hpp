@@ -4,9 +4,12 @@
 // output folder in a scratch directory, and talks to it with httplib's client.
 #include <gtest/gtest.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <poll.h>
 #include <signal.h>
 #include <sqlite3.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -44,6 +47,113 @@ inline json tiny_scene(const std::string& name, double duration = 0.05, double d
           {"materials", json::array({{{"name", "water"}, {"rheology", "newtonian"}, {"density", 1000}, {"viscosity", 0.001}}})},
           {"fluid", json::array({{{"min", {0, 0}}, {"max", {w, h}}, {"material", "water"}}})},
           {"boundaries", json::array({{{"type", "tank"}, {"min", {0, 0}}, {"max", {0.4, 0.3}}}})}};
+}
+
+// The first invalid field of an RFC 9457 problem document (docs/service.md, "Errors"): {field, message}.
+inline json first_error(const json& problem) {
+  if (!problem.is_object() || !problem.contains("errors") || problem.at("errors").empty())
+    return {{"field", "(no errors member)"}, {"message", problem.dump().substr(0, 300)}};
+  return problem.at("errors").at(0);
+}
+
+// The media type of a reply's Content-Type, without parameters.
+inline std::string media_type(const httplib::Headers& headers) {
+  auto it = headers.find("Content-Type");
+  if (it == headers.end()) return "";
+  return it->second.substr(0, it->second.find(';'));
+}
+
+// A raw TCP connection to the server, optionally from another loopback address (127.0.0.2, ...): the
+// server counts connections per client address.
+class Raw {
+ public:
+  Raw(int port, const std::string& from = "127.0.0.1") {
+    fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_in local{};
+    local.sin_family = AF_INET;
+    ::inet_pton(AF_INET, from.c_str(), &local.sin_addr);
+    if (::bind(fd_, reinterpret_cast<sockaddr*>(&local), sizeof local) != 0) throw std::runtime_error("bind " + from);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<uint16_t>(port));
+    ::inet_pton(AF_INET, "127.0.0.1", &addr.sin_addr);
+    ok_ = ::connect(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+  }
+  ~Raw() { ::close(fd_); }
+  Raw(const Raw&) = delete;
+  Raw& operator=(const Raw&) = delete;
+  bool connected() const { return ok_; }
+  void shutdown_write() { ::shutdown(fd_, SHUT_WR); }
+  bool send(const std::string& s) {
+    size_t off = 0;
+    while (off < s.size()) {
+      const ssize_t n = ::send(fd_, s.data() + off, s.size() - off, MSG_NOSIGNAL);
+      if (n <= 0) return false;
+      off += static_cast<size_t>(n);
+    }
+    return true;
+  }
+  // Reads until one whole response (head and Content-Length body) has arrived, the peer closes, or the timeout.
+  // A response to HEAD (`head_only`) has a Content-Length but no body.
+  std::string response(std::chrono::milliseconds timeout = 5000ms, bool head_only = false) {
+    const auto end = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < end) {
+      const size_t h = buf_.find("\r\n\r\n");
+      if (h != std::string::npos) {
+        std::smatch m;
+        const std::string head = buf_.substr(0, h);
+        const std::regex cl("Content-Length: ([0-9]+)", std::regex::icase);
+        const size_t len = !head_only && std::regex_search(head, m, cl) ? std::stoul(m[1].str()) : 0;
+        if (buf_.size() >= h + 4 + len) {
+          std::string r = buf_.substr(0, h + 4 + len);
+          buf_.erase(0, h + 4 + len);
+          return r;
+        }
+      }
+      if (!fill(end)) break;
+    }
+    std::string r = buf_;
+    buf_.clear();
+    return r;
+  }
+  // True when the server closes the connection (EOF or reset) before the timeout; what arrived is dropped.
+  bool closed_within(std::chrono::milliseconds timeout) {
+    const auto end = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < end) {
+      pollfd p{fd_, POLLIN, 0};
+      if (::poll(&p, 1, 50) <= 0) continue;
+      char b[4096];
+      const ssize_t n = ::recv(fd_, b, sizeof b, 0);
+      if (n <= 0) return true;
+    }
+    return false;
+  }
+
+ private:
+  bool fill(std::chrono::steady_clock::time_point end) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - std::chrono::steady_clock::now());
+    pollfd p{fd_, POLLIN, 0};
+    if (::poll(&p, 1, static_cast<int>(std::max<int64_t>(1, left.count()))) <= 0) return true;
+    char b[65536];
+    const ssize_t n = ::recv(fd_, b, sizeof b, 0);
+    if (n <= 0) return false;
+    buf_.append(b, static_cast<size_t>(n));
+    return true;
+  }
+  int fd_ = -1;
+  bool ok_ = false;
+  std::string buf_;
+};
+
+inline int status_of(const std::string& response) {
+  std::smatch m;
+  static const std::regex re(R"(^HTTP/1\.[01] ([0-9]{3}))");
+  return std::regex_search(response, m, re) ? std::stoi(m[1].str()) : 0;
+}
+
+inline json body_of(const std::string& response) {
+  const size_t h = response.find("\r\n\r\n");
+  return h == std::string::npos ? json() : json::parse(response.substr(h + 4), nullptr, false);
 }
 
 class ServerProcess {

@@ -177,10 +177,17 @@ TEST_F(Validation, MalformedRequestsGetTheRight4xxAndLeaveTheStoreUnchanged) {
       for (const auto& h : auth) c.headers.insert(h);
     const Reply r = request(c.method, c.path, c.body, c.headers, c.content_type);
     EXPECT_EQ(r.status, c.status) << c.name << ": " << r.text.substr(0, 400);
-    ASSERT_TRUE(r.body.is_object() && r.body.contains("error")) << c.name << ": " << r.text.substr(0, 400);
-    const json& e = r.body.at("error");
-    EXPECT_EQ(e.at("status"), r.status);
+    // An RFC 9457 problem document naming the field (docs/service.md, "Errors").
+    ASSERT_TRUE(r.body.is_object() && r.body.contains("errors")) << c.name << ": " << r.text.substr(0, 400);
+    EXPECT_EQ(media_type(r.headers), "application/problem+json") << c.name;
+    EXPECT_EQ(r.body.at("status"), r.status);
+    if (c.path.find('%') == std::string::npos)  // the instance is the decoded path
+      EXPECT_EQ(r.body.at("instance"), c.path.substr(0, c.path.find('?'))) << c.name;
+    EXPECT_EQ(r.body.at("type").get<std::string>().rfind("https://runout.invalid/problems/", 0), 0u) << c.name;
+    EXPECT_FALSE(r.body.at("title").get<std::string>().empty()) << c.name;
+    const json e = first_error(r.body);
     const std::string field = e.at("field"), message = e.at("message");
+    EXPECT_NE(r.body.at("detail").get<std::string>().find(message), std::string::npos) << c.name;
     EXPECT_FALSE(field.empty()) << c.name;
     EXPECT_FALSE(message.empty()) << c.name;
     if (!c.field.empty()) {

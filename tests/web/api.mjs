@@ -2,7 +2,7 @@
 // GET /api/v1/jobs/{id}/map.json, against the real `runout serve`.
 //  - estimate: the particle counts are the job's (the tiny 2D dam break of tests/service: 100 fluid + 168
 //    boundary at dp 0.02), the steps and seconds follow the cost model's documented formula from its own inputs, the errors
-//    are POST /jobs's (field and message), it needs the token when there is one, and it writes nothing;
+//    are POST /jobs's (a problem document listing every invalid field), it needs the token when there is one, and it writes nothing;
 //  - map.json: 409 before the job has results, 404 for a 2D job; for a flume layout the extent equals the
 //    raster's cells and the geometries are the resolved scene's.
 //
@@ -57,7 +57,7 @@ async function call(s, method, p, body, headers = {}) {
   } catch {
     /* not JSON */
   }
-  return { status: res.status, json, text };
+  return { status: res.status, json, text, type: res.headers.get('content-type') || '' };
 }
 
 async function waitDone(s, id, seconds) {
@@ -108,8 +108,14 @@ try {
     const a = await call(s, 'POST', '/estimate', bad);
     const b = await call(s, 'POST', '/jobs', bad);
     check(a.status >= 400 && a.status < 500, `estimate refuses ${JSON.stringify(bad).slice(0, 80)}: ${a.status}`);
-    equal(a.json?.error, b.json?.error, `estimate and POST /jobs give the same error for ${JSON.stringify(bad).slice(0, 80)}`);
+    equal([a.status, a.json?.type, a.json?.errors], [b.status, b.json?.type, b.json?.errors],
+      `estimate and POST /jobs give the same problem for ${JSON.stringify(bad).slice(0, 80)}`);
   }
+  // A refusal is a problem document listing every invalid field (what web/api.js reads into ApiError.errors).
+  const two = await call(s, 'POST', '/estimate', { scene: tiny('bad'), fidelity: 'coarse', colour: 'red' });
+  equal([two.status, two.type], [422, 'application/problem+json'], 'a refused estimate is a problem document');
+  equal((two.json?.errors || []).map((x) => x.field), ['colour', 'fidelity'], 'both invalid fields are listed');
+  equal(two.json?.instance, '/api/v1/estimate', 'the problem names the request path');
   equal((await call(s, 'GET', '/jobs')).json.total, 0, 'refused submissions write no job');
 
   // A job of the same body: the particles the estimate said.
@@ -124,7 +130,7 @@ try {
   equal(done.status, 'done', 'the tiny job finishes');
   const flat = await call(s, 'GET', `/jobs/${job.json.id}/map.json`);
   equal(flat.status, 404, 'map.json of a 2D job');
-  equal(flat.json?.error?.field, 'id', 'the 404 names the job');
+  equal(flat.json?.errors?.[0]?.field, 'id', 'the 404 names the job');
   equal((await call(s, 'GET', '/jobs/999/map.json')).status, 404, 'map.json of no job');
 
   // A flume layout (coarse, short): the map's extent and overlays.
@@ -163,7 +169,7 @@ try {
   servers.push(t);
   const no = await call(t, 'POST', '/estimate', body);
   equal(no.status, 401, 'estimate without the token');
-  equal(no.json?.error?.field, 'Authorization', 'the 401 names the header');
+  equal(no.json?.errors?.[0]?.field, 'Authorization', 'the 401 names the header');
   const yes = await call(t, 'POST', '/estimate', body, { Authorization: 'Bearer sesame' });
   equal(yes.status, 200, 'estimate with the token');
 } catch (e) {

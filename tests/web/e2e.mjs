@@ -155,8 +155,8 @@ async function main() {
   await page.click('#scene-store');
   await page.waitForFunction(() => document.getElementById('err-scene').textContent.length > 0);
   const sceneErr = await page.textContent('#err-scene');
-  check(sceneErr.includes(refused.json.error.message) && sceneErr.includes(refused.json.error.field),
-    `the scene error beside the field (${sceneErr}) is the API's (${JSON.stringify(refused.json.error)})`);
+  check(sceneErr.includes(refused.json.errors[0].message) && sceneErr.includes(refused.json.errors[0].field),
+    `the scene error beside the field (${sceneErr}) is the API's (${JSON.stringify(refused.json.errors)})`);
 
   // The real scene, pasted and stored.
   await page.fill('#scene-json', JSON.stringify(flume));
@@ -301,12 +301,12 @@ async function main() {
   equal(badEst.status, 422, 'POST /estimate with dp -1');
   const badJob = await api(base, 'POST', '/jobs', badBody);
   equal(badJob.status, 422, 'POST /jobs with dp -1');
-  equal(badJob.json.error.field, 'fidelity.dp', 'the field the API names');
-  await page.waitForFunction((m) => document.getElementById('err-fidelity').textContent.includes(m), badJob.json.error.message);
+  equal(badJob.json.errors[0].field, 'fidelity.dp', 'the field the API names');
+  await page.waitForFunction((m) => document.getElementById('err-fidelity').textContent.includes(m), badJob.json.errors[0].message);
   const total = (await api(base, 'GET', '/jobs')).json.total;
   await page.click('#submit-btn');
   await page.waitForFunction((m) => document.getElementById('err-fidelity').textContent.includes(m) &&
-    document.getElementById('submit-status').textContent === '', badJob.json.error.message);
+    document.getElementById('submit-status').textContent === '', badJob.json.errors[0].message);
   const fidErr = await page.textContent('#err-fidelity');
   check(fidErr.startsWith('fidelity.dp'), `the message names the field (${fidErr})`);
   equal(await page.getAttribute('#dp', 'aria-invalid'), 'true', 'the dp input is marked invalid');

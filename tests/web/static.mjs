@@ -98,7 +98,7 @@ try {
   const head = await request(a, 'HEAD', '/web/app.js');
   check(head.status === 200 && head.body.length === 0, `HEAD /web/app.js: ${head.status}, ${head.body.length} bytes`);
   const missing = await request(a, 'GET', '/web/nope.js');
-  check(missing.status === 404 && missing.json?.error?.field === 'path', `GET /web/nope.js: ${missing.status} ${missing.body}`);
+  check(missing.status === 404 && missing.json?.errors?.[0]?.field === 'path', `GET /web/nope.js: ${missing.status} ${missing.body}`);
   const post = await request(a, 'POST', '/web/app.js');
   check(post.status === 405 && /GET/.test(post.headers.allow || ''), `POST /web/app.js: ${post.status} Allow ${post.headers.allow}`);
   const api = await request(a, 'GET', '/api/v1/health');
@@ -122,7 +122,7 @@ try {
   ];
   for (const p of traversals) {
     const r = await request(a, 'GET', p);
-    check(r.status === 400 && r.json?.error?.field === 'path', `GET ${p}: ${r.status} ${r.body.toString().slice(0, 200)}`);
+    check(r.status === 400 && r.json?.errors?.[0]?.field === 'path', `GET ${p}: ${r.status} ${r.body.toString().slice(0, 200)}`);
     check(!r.body.toString().includes('root:') && !r.body.toString().includes('CMAKE_'), `GET ${p} leaks nothing`);
   }
 
@@ -145,7 +145,7 @@ try {
   const c = await startServer(path.join(scratch, 'c'), ['--web-root', path.join(scratch, 'does-not-exist')]);
   servers.push(c);
   const none = await request(c, 'GET', '/');
-  check(none.status === 404 && /--web-root/.test(none.json?.error?.message || ''), `no page: ${none.status} ${none.body}`);
+  check(none.status === 404 && /--web-root/.test(none.json?.errors?.[0]?.message || ''), `no page: ${none.status} ${none.body}`);
   check(c.stdout().includes('no web page'), `startup line says there is no page: ${c.stdout()}`);
 } catch (e) {
   failures.push(String(e.stack || e));

@@ -1,0 +1,347 @@
+// The API's conventions (issue 23, docs/service.md): RFC 9457 problem documents on every 4xx the server can
+// produce, every invalid field of a request listed, lists in pages that cover every item exactly once, and the
+// sweeps' own resources. Against the real `runout serve` (service_harness.hpp); a few seconds in all.
+#include "service/service_harness.hpp"
+
+#include <set>
+#include <tuple>
+
+using namespace runout_test;
+
+namespace {
+
+const std::string kToken = "api-test-token";
+const std::string kProblems = "https://runout.invalid/problems/";
+
+class Api : public ServiceTest {
+ protected:
+  httplib::Headers auth() const { return {{"Authorization", "Bearer " + kToken}}; }
+  void write_token() const { std::ofstream(dir_ / "token") << kToken << "\n"; }
+
+  // The members RFC 9457 defines, and ours: type (one of the documented kinds), title, status, detail, instance
+  // (when the request line was read), errors naming `field` first.
+  void expect_problem(const json& p, int status, const std::string& kind, const std::string& instance,
+                      const std::string& field) const {
+    SCOPED_TRACE(p.dump().substr(0, 400));
+    ASSERT_TRUE(p.is_object());
+    EXPECT_EQ(p.value("type", ""), kProblems + kind);
+    EXPECT_FALSE(p.value("title", "").empty());
+    EXPECT_EQ(p.value("status", 0), status);
+    EXPECT_FALSE(p.value("detail", "").empty());
+    if (instance.empty()) EXPECT_FALSE(p.contains("instance"));
+    else EXPECT_EQ(p.value("instance", ""), instance);
+    ASSERT_TRUE(p.contains("errors") && p.at("errors").is_array());
+    if (!field.empty()) {
+      ASSERT_FALSE(p.at("errors").empty());
+      EXPECT_EQ(p.at("errors")[0].at("field"), field);
+      EXPECT_FALSE(p.at("errors")[0].at("message").get<std::string>().empty());
+    }
+  }
+  void expect_problem(const Reply& r, int status, const std::string& kind, const std::string& instance,
+                      const std::string& field) const {
+    EXPECT_EQ(r.status, status) << r.text.substr(0, 300);
+    EXPECT_EQ(media_type(r.headers), "application/problem+json") << instance;
+    expect_problem(r.body, status, kind, instance, field);
+  }
+  // A raw exchange's status, media type and problem document.
+  void expect_raw_problem(const std::string& response, int status, const std::string& kind,
+                          const std::string& instance, const std::string& field) const {
+    EXPECT_EQ(status_of(response), status) << response.substr(0, 300);
+    EXPECT_NE(response.find("Content-Type: application/problem+json\r\n"), std::string::npos) << response.substr(0, 300);
+    expect_problem(body_of(response), status, kind, instance, field);
+  }
+
+  // Every item of a list, following `next` from `first`; checks that the Link header carries the same URL.
+  std::vector<int64_t> walk(const std::string& first, const std::string& member, int* pages) const {
+    std::vector<int64_t> ids;
+    std::string url = "/api/v1" + first;
+    *pages = 0;
+    while (!url.empty() && *pages < 100) {
+      const Reply r = request("GET", url);
+      EXPECT_EQ(r.status, 200) << url << ": " << r.text.substr(0, 300);
+      if (r.status != 200) break;
+      ++*pages;
+      for (const auto& item : r.body.at(member)) ids.push_back(item.at("id"));
+      const json& next = r.body.at("next");
+      auto link = r.headers.find("Link");
+      if (next.is_null()) {
+        EXPECT_EQ(link, r.headers.end()) << url;
+        url.clear();
+      } else {
+        url = next.get<std::string>();
+        EXPECT_NE(link, r.headers.end()) << url;
+        if (link != r.headers.end()) EXPECT_EQ(link->second, "<" + url + ">; rel=\"next\"");
+      }
+    }
+    return ids;
+  }
+};
+
+// Every 4xx the server produces is application/problem+json with type, title, status, detail, instance and errors.
+TEST_F(Api, EveryRefusalIsAProblemDocument) {
+  write_token();
+  start({"--workers", "0", "--token-file", (dir_ / "token").string(), "--max-body", "4096", "--header-timeout", "1",
+         "--max-connections-per-client", "2"});
+  const Reply job = post("/jobs", {{"scene", tiny_scene("queued")}}, auth());
+  ASSERT_EQ(job.status, 201) << job.text;
+  const std::string job_path = "/api/v1/jobs/" + std::to_string(job.body.at("id").get<int64_t>());
+
+  expect_problem(request("POST", "/api/v1/jobs", "{\"scene\": ", auth()), 400, "malformed-request", "/api/v1/jobs", "(body)");
+  expect_problem(get("/jobs?limit=0"), 400, "malformed-request", "/api/v1/jobs", "limit");
+  const Reply no_token = post("/jobs", {{"scene", tiny_scene("x")}});
+  expect_problem(no_token, 401, "unauthorized", "/api/v1/jobs", "Authorization");
+  EXPECT_EQ(no_token.headers.find("WWW-Authenticate")->second, "Bearer");
+  expect_problem(get("/jobs/999"), 404, "not-found", "/api/v1/jobs/999", "id");
+  expect_problem(get("/sweeps/999"), 404, "not-found", "/api/v1/sweeps/999", "id");
+  expect_problem(get("/nowhere"), 404, "not-found", "/api/v1/nowhere", "path");
+  const Reply put = request("PUT", "/api/v1/jobs", "{}", auth());
+  expect_problem(put, 405, "method-not-allowed", "/api/v1/jobs", "method");
+  EXPECT_NE(put.headers.find("Allow"), put.headers.end());
+  expect_problem(get(job_path.substr(7) + "/metrics"), 409, "not-ready", job_path + "/metrics", "status");
+  expect_problem(request("POST", "/api/v1/jobs", "{}", auth(), "text/plain"), 415, "unsupported-media-type",
+                 "/api/v1/jobs", "Content-Type");
+  expect_problem(post("/jobs", {{"scene", tiny_scene("x")}, {"fidelity", "ultra"}}, auth()), 422, "invalid-field",
+                 "/api/v1/jobs", "fidelity");
+  // 429 and 422 over the work budget: hostile_test.cpp (WorkBudgetRefusesWithRetryAfterPerTokenAndInAll).
+
+  // Refused by the front end, before any handler: 413 (the body's announced size), 431 (the head's), 408 (a head
+  // not finished within --header-timeout: no path read yet, so no instance), 429 (a third connection from this
+  // address over --max-connections-per-client 2).
+  {
+    Raw c(server_.port());
+    ASSERT_TRUE(c.send("POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer " + kToken +
+                       "\r\nContent-Type: application/json\r\nContent-Length: 100000\r\n\r\n"));
+    expect_raw_problem(c.response(3000ms), 413, "body-too-large", "/api/v1/jobs", "(body)");
+  }
+  {
+    Raw c(server_.port());
+    ASSERT_TRUE(c.send("GET /api/v1/health HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(20000, 'a') + "\r\n\r\n"));
+    expect_raw_problem(c.response(3000ms), 431, "head-too-large", "", "(headers)");
+  }
+  // The rest of the front end's refusals: 414 and 505 (the request line: no path yet), 417 and 501 (the head).
+  for (const auto& [head, status, kind, instance, field] :
+       std::vector<std::tuple<std::string, int, std::string, std::string, std::string>>{
+           {"GET /api/v1/" + std::string(9000, 'a') + " HTTP/1.1\r\nHost: x\r\n\r\n", 414, "target-too-long", "", "(request)"},
+           {"GET /api/v1/health HTTP/2.0\r\nHost: x\r\n\r\n", 505, "http-version-not-supported", "", "(request)"},
+           {"POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer " + kToken +
+                "\r\nExpect: 200-ok\r\nContent-Length: 2\r\n\r\n",
+            417, "expectation-failed", "/api/v1/jobs", "Expect"},
+           {"POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer " + kToken +
+                "\r\nTransfer-Encoding: gzip\r\n\r\n",
+            501, "not-implemented", "/api/v1/jobs", "Transfer-Encoding"}}) {
+    Raw c(server_.port());
+    ASSERT_TRUE(c.send(head));
+    expect_raw_problem(c.response(3000ms), status, kind, instance, field);
+  }
+  {
+    Raw c(server_.port());
+    ASSERT_TRUE(c.send("GET /api/v1/health HTTP/1.1\r\nHost: x\r\n"));  // never finished
+    expect_raw_problem(c.response(4000ms), 408, "request-timeout", "", "(request)");
+  }
+  {
+    Raw a(server_.port()), b(server_.port());
+    ASSERT_TRUE(a.send("GET /api/v1/health HTTP/1.1\r\nHost: x\r\n\r\n"));
+    ASSERT_EQ(status_of(a.response(3000ms)), 200);  // both accepted and counted before the third
+    ASSERT_TRUE(b.send("GET /api/v1/health HTTP/1.1\r\nHost: x\r\n\r\n"));
+    ASSERT_EQ(status_of(b.response(3000ms)), 200);
+    Raw c(server_.port());
+    const std::string r = c.response(3000ms);
+    expect_raw_problem(r, 429, "too-many-connections", "", "(connection)");
+    EXPECT_NE(r.find("Retry-After: 1\r\n"), std::string::npos);
+  }
+}
+
+// 503: over --max-connections in all (its least, 4, held open by this client).
+TEST_F(Api, OverTheConnectionLimitIsAProblemDocument) {
+  start({"--workers", "0", "--max-connections", "4"});
+  std::vector<std::unique_ptr<Raw>> held;
+  for (int k = 0; k < 4; ++k) {
+    held.push_back(std::make_unique<Raw>(server_.port()));
+    ASSERT_TRUE(held.back()->send("GET /api/v1/health HTTP/1.1\r\nHost: x\r\n\r\n"));
+    ASSERT_EQ(status_of(held.back()->response(3000ms)), 200);
+  }
+  Raw over(server_.port());
+  const std::string r = over.response(3000ms);
+  expect_raw_problem(r, 503, "overloaded", "", "(connection)");
+  EXPECT_NE(r.find("Retry-After: 1\r\n"), std::string::npos);
+}
+
+// A request's own fields are checked together: every invalid one is listed, not only the first.
+TEST_F(Api, EveryInvalidFieldIsListed) {
+  start({"--workers", "0"});
+  auto fields = [](const Reply& r) {
+    std::vector<std::string> out;
+    if (r.body.contains("errors"))
+      for (const auto& e : r.body.at("errors")) out.push_back(e.at("field"));
+    return out;
+  };
+  const Reply scene = post("/scenes", tiny_scene("base"));
+  ASSERT_EQ(scene.status, 201) << scene.text;
+  const int64_t sid = scene.body.at("id");
+
+  // Two bad fields of a job, and an unknown one: all three, in the body's order of checking.
+  const Reply two = post("/jobs", {{"scene_id", sid}, {"fidelity", {{"dp", -1}}}, {"variant", "a b"}, {"colour", 1}});
+  EXPECT_EQ(two.status, 422) << two.text;
+  EXPECT_EQ(fields(two), (std::vector<std::string>{"colour", "fidelity.dp", "variant"})) << two.text;
+  EXPECT_NE(two.body.at("detail").get<std::string>().find("3 fields"), std::string::npos) << two.text;
+  // A sweep: a bad name and two bad variants.
+  const Reply sweep = post("/sweeps", {{"name", "no spaces allowed"},
+                                       {"scene_id", sid},
+                                       {"variants", json::array({{{"name", "C0"}, {"structures", {"Dam9"}}},
+                                                                 {{"name", "C0"}},
+                                                                 {{"structures", json::array()}}})}});
+  EXPECT_EQ(sweep.status, 422) << sweep.text;
+  EXPECT_EQ(fields(sweep), (std::vector<std::string>{"name", "variants[0].structures[0]", "variants[1].name",
+                                                     "variants[2].name"}))
+      << sweep.text;
+  // A body of many unknown fields: the first 100 are listed, the rest counted in a last entry.
+  json many = {{"scene", tiny_scene("many")}};
+  for (int k = 0; k < 150; ++k) many["x" + std::to_string(1000 + k)] = k;
+  const Reply capped = post("/jobs", many);
+  EXPECT_EQ(capped.status, 422);
+  ASSERT_EQ(capped.body.at("errors").size(), 101u) << capped.text.substr(0, 300);
+  EXPECT_EQ(capped.body.at("errors")[100].at("field"), "(errors)");
+  EXPECT_NE(capped.body.at("errors")[100].at("message").get<std::string>().find("50 more"), std::string::npos);
+  EXPECT_NE(capped.body.at("detail").get<std::string>().find("more than 100 fields"), std::string::npos);
+  // Query parameters likewise.
+  const Reply query = get("/jobs?limit=0&status=finished&colour=red");
+  EXPECT_EQ(query.status, 400);
+  std::vector<std::string> q = fields(query);
+  std::sort(q.begin(), q.end());
+  EXPECT_EQ(q, (std::vector<std::string>{"colour", "limit", "status"})) << query.text;
+  // A scene's own validation stops at its first error: one entry.
+  json bad = tiny_scene("bad");
+  bad["materials"][0]["density"] = -1;
+  bad["duration"] = -1;
+  const Reply one = post("/jobs", {{"scene", bad}});
+  EXPECT_EQ(one.status, 422);
+  EXPECT_EQ(one.body.at("errors").size(), 1u) << one.text;
+  EXPECT_EQ(query_int("SELECT COUNT(*) FROM jobs"), 0);
+}
+
+// Lists come in pages of `limit` from an opaque cursor: following `next` (and the Link header) covers every
+// item exactly once, in the list's order, also when items are added between pages.
+TEST_F(Api, PagesCoverEveryItemExactlyOnce) {
+  start({"--workers", "0"});
+  std::vector<int64_t> scenes, jobs, sweeps;
+  for (int k = 0; k < 7; ++k) {
+    const Reply r = post("/scenes", tiny_scene("s" + std::to_string(k)));
+    ASSERT_EQ(r.status, 201) << r.text;
+    scenes.push_back(r.body.at("id"));
+  }
+  for (int k = 0; k < 11; ++k) {
+    const Reply r = post("/jobs", {{"scene", tiny_scene("j" + std::to_string(k))}});
+    ASSERT_EQ(r.status, 201) << r.text;
+    jobs.push_back(r.body.at("id"));
+  }
+  for (int k = 0; k < 5; ++k) {
+    const Reply r = post("/sweeps", {{"name", "w" + std::to_string(k)}, {"scene_id", scenes[0]},
+                                     {"variants", json::array({{{"name", "C0"}}})}});
+    ASSERT_EQ(r.status, 201) << r.text;
+    sweeps.push_back(r.body.at("id"));
+    jobs.push_back(r.body.at("jobs")[0].at("id"));
+  }
+  int pages = 0;
+  EXPECT_EQ(walk("/scenes?limit=3", "scenes", &pages), scenes);
+  EXPECT_EQ(pages, 3);
+  EXPECT_EQ(walk("/jobs?limit=4", "jobs", &pages), jobs);
+  EXPECT_EQ(pages, 4);
+  EXPECT_EQ(walk("/jobs?limit=16", "jobs", &pages), jobs);  // the last page exactly full: next is null after it
+  EXPECT_EQ(pages, 1);
+  std::vector<int64_t> newest_first(sweeps.rbegin(), sweeps.rend());
+  EXPECT_EQ(walk("/sweeps?limit=2", "sweeps", &pages), newest_first);
+  EXPECT_EQ(pages, 3);
+  // Defaults: every scene in one page.
+  EXPECT_EQ(get("/scenes").body.at("limit"), 100);
+  EXPECT_EQ(get("/sweeps").body.at("limit"), 100);
+  EXPECT_EQ(get("/jobs").body.at("limit"), 1000);
+
+  // A filter is kept in `next`; a sweep added between pages neither repeats nor hides the older ones.
+  const Reply first = get("/sweeps?limit=2");
+  ASSERT_EQ(first.status, 200);
+  ASSERT_EQ(post("/sweeps", {{"name", "late"}, {"scene_id", scenes[0]}, {"variants", json::array({{{"name", "C0"}}})}})
+                .status,
+            201);
+  std::vector<int64_t> seen;
+  for (const auto& s : first.body.at("sweeps")) seen.push_back(s.at("id"));
+  for (std::string url = first.body.at("next"); !url.empty();) {
+    const Reply r = request("GET", url);
+    for (const auto& s : r.body.at("sweeps")) seen.push_back(s.at("id"));
+    url = r.body.at("next").is_null() ? "" : r.body.at("next").get<std::string>();
+  }
+  EXPECT_EQ(seen, newest_first);
+  const Reply filtered = get("/jobs?status=queued&limit=2");
+  ASSERT_FALSE(filtered.body.at("next").is_null());
+  EXPECT_NE(filtered.body.at("next").get<std::string>().find("status=queued"), std::string::npos);
+
+  // Out of range or foreign: 400 problems naming the parameter and the accepted range.
+  for (const std::string bad : {"/scenes?limit=0", "/scenes?limit=1001", "/sweeps?limit=-1", "/jobs?limit=10001"}) {
+    const Reply r = get(bad);
+    EXPECT_EQ(r.status, 400) << bad;
+    EXPECT_EQ(first_error(r.body).at("field"), "limit") << bad;
+    EXPECT_NE(first_error(r.body).at("message").get<std::string>().find("[1, "), std::string::npos) << r.text;
+  }
+  for (const std::string bad : {"/scenes?cursor=", "/jobs?cursor=42", "/sweeps?cursor=%2F%2F"}) {
+    const Reply r = get(bad);
+    EXPECT_EQ(r.status, 400) << bad;
+    EXPECT_EQ(first_error(r.body).at("field"), "cursor") << bad;
+  }
+  EXPECT_EQ(first_error(get("/jobs?offset=1&cursor=" + first.body.at("next").get<std::string>().substr(
+                                                                 first.body.at("next").get<std::string>().find("cursor=") + 7))
+                            .body)
+                .at("field"),
+            "offset");
+}
+
+// GET /sweeps and /sweeps/{id}: the sweeps submitted, newest first, and one sweep's variants with their jobs'
+// status and progress, linking to the comparison once every job is done.
+TEST_F(Api, SweepsAreListedAndFollowedToTheirComparison) {
+  start({"--workers", "1", "--threads-per-job", "1"});
+  const Reply scene = post("/scenes", tiny_scene("base"));
+  ASSERT_EQ(scene.status, 201) << scene.text;
+  const Reply sweep = post("/sweeps", {{"name", "widths"},
+                                       {"scene_id", scene.body.at("id")},
+                                       {"fidelity", "standard"},
+                                       {"variants", json::array({{{"name", "A"}}, {{"name", "B"}}})}});
+  ASSERT_EQ(sweep.status, 201) << sweep.text;
+  const int64_t id = sweep.body.at("id");
+  EXPECT_EQ(sweep.headers.find("Location")->second, "/api/v1/sweeps/" + std::to_string(id));
+
+  const Reply list = get("/sweeps");
+  ASSERT_EQ(list.status, 200);
+  ASSERT_EQ(list.body.at("sweeps").size(), 1u);
+  const json& summary = list.body.at("sweeps")[0];
+  EXPECT_EQ(summary.at("id"), id);
+  EXPECT_EQ(summary.at("name"), "widths");
+  EXPECT_EQ(summary.at("jobs_total"), 2);
+
+  json detail;
+  for (int k = 0; k < 600; ++k) {  // at most 60 s
+    detail = get("/sweeps/" + std::to_string(id)).body;
+    const bool finished = detail.value("status", "") != "running";
+    if (!finished) EXPECT_TRUE(detail.at("links").at("compare").is_null()) << detail.dump();
+    if (finished) break;
+    std::this_thread::sleep_for(100ms);
+  }
+  ASSERT_EQ(detail.value("status", ""), "done") << detail.dump();
+  ASSERT_EQ(detail.at("variants").size(), 2u);
+  EXPECT_EQ(detail.at("variants")[0].at("variant"), "A");
+  EXPECT_EQ(detail.at("variants")[1].at("variant"), "B");
+  for (const auto& v : detail.at("variants")) {
+    EXPECT_EQ(v.at("status"), "done");
+    EXPECT_DOUBLE_EQ(v.at("progress").at("fraction").get<double>(), 1.0);
+    EXPECT_TRUE(v.at("run_id").is_number());
+  }
+  EXPECT_EQ(detail.at("jobs_by_status").at("done"), 2);
+  EXPECT_DOUBLE_EQ(detail.at("progress").at("fraction").get<double>(), 1.0);
+  const std::string compare = detail.at("links").at("compare");
+  const Reply cmp = request("GET", compare);
+  ASSERT_EQ(cmp.status, 200) << compare << ": " << cmp.text.substr(0, 300);
+  EXPECT_EQ(cmp.body.at("baseline").at("label"), "A");
+  ASSERT_EQ(cmp.body.at("jobs").size(), 1u);
+  EXPECT_EQ(cmp.body.at("jobs")[0].at("job"), detail.at("variants")[1].at("job"));
+  EXPECT_EQ(get("/compare?sweep=99").status, 404);
+  EXPECT_EQ(get("/compare?sweep=1&jobs=1").status, 400);
+}
+
+}  // namespace
