@@ -23,15 +23,24 @@ InundationGrid::InundationGrid(const TerrainModel& model)
   arrival_ = terrain_.like(Grid::nodata);
   max_hv_ = terrain_.like(0.0f);
   max_pressure_ = terrain_.like(0.0f);
+  const size_t cells = terrain_.values.size();
+  vol_.assign(cells, 0.0);
+  hv_.assign(cells, 0.0);
+  rho_v2_.assign(cells, 0.0);
+  touched_flag_.assign(cells, 0);
 }
 
 void InundationGrid::update(const std::vector<Vec<3>>& positions, const std::vector<real>& volumes,
                             const std::vector<real>& speeds, double time, double threshold,
                             const std::vector<real>& densities) {
-  std::fill(depth_.values.begin(), depth_.values.end(), 0.0f);
-  vol_.assign(depth_.values.size(), 0.0);
-  hv_.assign(depth_.values.size(), 0.0);
-  rho_v2_.assign(depth_.values.size(), 0.0);
+  // Only the cells the last update reached hold anything: reset those (the work follows the flow's
+  // footprint, not the corridor's window).
+  for (size_t c : touched_) {
+    depth_.values[c] = 0.0f;
+    vol_[c] = hv_[c] = rho_v2_[c] = 0.0;
+    touched_flag_[c] = 0;
+  }
+  touched_.clear();
   const bool with_rho = densities.size() == positions.size();
   const double h = 0.5 * dp_, inv_area = 1.0 / terrain_.cell_area();
   const Grid& g = terrain_;
@@ -49,6 +58,7 @@ void InundationGrid::update(const std::vector<Vec<3>>& positions, const std::vec
         if (ox <= 0) continue;
         const double v = share * ox * oy;  // volume of the particle's share on this cell
         const size_t c = static_cast<size_t>(j) * g.nx + i;
+        if (!touched_flag_[c]) touched_flag_[c] = 1, touched_.push_back(c);
         depth_.values[c] += static_cast<float>(v * inv_area);
         vol_[c] += v;
         hv_[c] += v * speeds[p];
@@ -58,7 +68,7 @@ void InundationGrid::update(const std::vector<Vec<3>>& positions, const std::vec
     int i, j;
     if (g.cell_of(x, y, i, j)) max_speed_.at(i, j) = std::max(max_speed_.at(i, j), static_cast<float>(speeds[p]));
   }
-  for (size_t c = 0; c < depth_.values.size(); ++c) {
+  for (size_t c : touched_) {
     max_depth_.values[c] = std::max(max_depth_.values[c], depth_.values[c]);
     max_hv_.values[c] = std::max(max_hv_.values[c], static_cast<float>(hv_[c] * inv_area));
     if (with_rho && vol_[c] > 0 && depth_.values[c] >= threshold)  // the volume-weighted mean of rho v^2

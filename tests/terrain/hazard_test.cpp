@@ -71,6 +71,26 @@ TEST(HazardGrids, MaxHvIsTheMaxOverTimeOfDepthTimesSpeedNotTheProductOfTheMaxima
   EXPECT_FLOAT_EQ(at_local(g.arrival_time(), 6.5, 6.5), 1.0f);
 }
 
+TEST(HazardGrids, EachUpdateDepthIsThatUpdatesFlowOnly) {
+  // The current depth holds the last update's flow: a cell the flow has left reads 0 again (only the cells an
+  // update reaches are reset and scanned), while the maxima and the arrival keep what passed.
+  const TerrainModel m = flat_model();
+  InundationGrid g(m);
+  g.update({Vec<3>(2.5, 2.5, 100)}, {1.0}, {1.0}, 0.0, 0.1);
+  EXPECT_FLOAT_EQ(at_local(g.depth(), 2.5, 2.5), 1.0f);
+  g.update({Vec<3>(7.5, 2.5, 100)}, {0.5}, {2.0}, 1.0, 0.1);
+  EXPECT_FLOAT_EQ(at_local(g.depth(), 2.5, 2.5), 0.0f);
+  EXPECT_FLOAT_EQ(at_local(g.depth(), 7.5, 2.5), 0.5f);
+  EXPECT_FLOAT_EQ(at_local(g.max_depth(), 2.5, 2.5), 1.0f);
+  EXPECT_FLOAT_EQ(at_local(g.max_hv(), 7.5, 2.5), 1.0f);
+  EXPECT_FLOAT_EQ(at_local(g.arrival_time(), 7.5, 2.5), 1.0f);
+  g.update({}, {}, {}, 2.0, 0.1);
+  double total = 0;
+  for (float v : g.depth().values) total += v;
+  EXPECT_EQ(total, 0.0);
+  EXPECT_FLOAT_EQ(at_local(g.max_depth(), 7.5, 2.5), 0.5f);
+}
+
 TEST(HazardGrids, MaxHvEqualsDepthTimesSpeedForAUniformSheet) {
   // A 0.3 m sheet of dp = 0.5 m particles (each spread over four cells' quarters) moving at 2.5 m/s: every
   // fully covered cell has h = 0.3 m and h v = 0.75 m2/s, the pressure 1800 x 2.5^2 = 11.25 kPa.

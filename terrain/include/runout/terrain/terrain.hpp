@@ -205,6 +205,8 @@ class InundationGrid {
   Grid terrain_, max_depth_, max_speed_, depth_, arrival_, max_hv_, max_pressure_;
   // Per update and cell, sums over the particles' shares on it: volume, volume * |v|, volume * rho |v|^2.
   std::vector<double> vol_, hv_, rho_v2_;
+  std::vector<size_t> touched_;     // the cells the last update reached
+  std::vector<char> touched_flag_;  // per cell: in touched_
 };
 
 }  // namespace runout::terrain
