@@ -375,6 +375,9 @@ class Coordinator {
       if (!did) std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
     shutdown_workers();
+    // The workers wrote their rasters under the same output root (a shared file system, as for the store's
+    // outputs): the differences against the baseline are rank 0's, as a single-process sweep's are.
+    if (!stopping_) result_.differences = write_difference_rasters(options_.out_root / sweep_.name, result_.variants);
     return result_;
   }
 

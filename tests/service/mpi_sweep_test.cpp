@@ -223,6 +223,15 @@ TEST_F(MpiSweep, ThreeRanksStoreExactlyTheSingleProcessMetricsOnceAndResume) {
   // The layouts differ (so equal metrics are not trivially equal): C0 and C4 do not have the same particles.
   EXPECT_NE(mpi.metrics(b.at("C0").id).at("particles.boundary"), mpi.metrics(b.at("C4").id).at("particles.boundary"));
   EXPECT_EQ(mpi.integrity_check(), "ok");
+  // Rank 0 writes the difference rasters against the baseline, as the single process does, with the same values.
+  for (size_t k = 1; k < kVariants.size(); ++k)
+    for (const char* raster : {"diff_max_depth.tif", "diff_max_hv.tif"}) {
+      const fs::path a = dir_ / "single" / "mpi-test" / kVariants[k] / "rasters" / raster;
+      const fs::path b = dir_ / "mpi" / "mpi-test" / kVariants[k] / "rasters" / raster;
+      ASSERT_TRUE(fs::is_regular_file(a)) << a;
+      ASSERT_TRUE(fs::is_regular_file(b)) << b;
+      EXPECT_EQ(read_text(a), read_text(b)) << raster;
+    }
 
   // Started again: every run is found in the store, none recomputed or stored again.
   ASSERT_EQ(wait_exit(spawn(cat(mpirun(3), sweep_args("mpi.db", "mpi")), dir_ / "again.log"), 300s), 0)
