@@ -76,7 +76,10 @@ function legendOf(layer) {
   box.append(list);
   const note = document.createElement('div');
   note.className = 'legend-note';
-  note.textContent = layer.scale.classes ? 'no colour: not inundated' : `no colour: ${layer.scale.zero_transparent ? `below ${numberText(layer.scale.min)} ${layer.unit} or no data` : 'never reached'}`;
+  const sc = layer.scale;
+  note.textContent = sc.classes ? 'no colour: not inundated'
+    : !sc.zero_transparent ? 'no colour: never reached'
+    : sc.min > 0 ? `no colour: below ${numberText(sc.min)} ${layer.unit} or no data` : 'no colour: zero or no data';
   box.append(note);
   return box;
 }
@@ -151,11 +154,18 @@ export async function drawMap(container, job) {
   for (const f of shapes)
     for (const p of latLngs(f.geometry.type === 'Polygon' ? f.geometry.coordinates[0] : f.geometry.coordinates)) view.extend(p);
   const aspect = (view.getNorth() - view.getSouth()) / (view.getEast() - view.getWest());
-  holder.style.height = `${Math.round(Math.min(480, Math.max(320, holder.clientWidth * aspect + 40)))}px`;
+  const least = window.matchMedia('(max-width: 640px)').matches ? 200 : 320; // a phone's screen is short
+  holder.style.height = `${Math.round(Math.min(480, Math.max(least, holder.clientWidth * aspect + 40)))}px`;
   const map = L.map(holder, { crs: crsFor(r), attributionControl: false, zoomSnap: 0.25, zoomDelta: 0.5 });
-  map.fitBounds(view, { padding: [12, 12] });
-  map.setMinZoom(map.getZoom() - 1);
-  map.setMaxZoom(map.getZoom() + 6);
+  // Fit the view, and fit it again when the frame changes size (a phone turned, a window resized): zoom limits
+  // from one step out to six in.
+  const fit = () => {
+    map.setMinZoom(-Infinity).setMaxZoom(Infinity);
+    map.fitBounds(view, { padding: [12, 12], animate: false });
+    map.setMinZoom(map.getZoom() - 1).setMaxZoom(map.getZoom() + 6);
+  };
+  fit();
+  map.on('resize', fit);
   map.setMaxBounds(view.pad(0.5));
   figure.__map = map; // for the browser test
 

@@ -448,6 +448,9 @@ async function main() {
   await shot('web-phone-jobs-390x844.png');
   await page.evaluate(() => document.getElementById('charts').scrollIntoView({ block: 'start' }));
   await shot('web-phone-charts-390x844.png');
+  await page.evaluate(() => document.getElementById('maps').scrollIntoView({ block: 'start' }));
+  await page.waitForTimeout(300); // Leaflet follows the window's resize
+  await shot('web-phone-maps-390x844.png');
 
   check(problems.length === 0, `no errors in the page: ${problems.join('; ')}`);
   check(foreign.length === 0, `nothing fetched from elsewhere: ${foreign.join(', ')}`);
