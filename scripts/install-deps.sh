@@ -9,6 +9,7 @@ packages=(
   libgdal-dev gdal-bin
   libcpp-httplib-dev
   libsqlite3-dev sqlite3 libssl-dev
+  libpng-dev  # the web map's coloured rasters (scenarios/src/raster_map.cpp)
   libgtest-dev  # GoogleTest only: no test uses gmock, and bench/ times with its own loops, not Google Benchmark
   nlohmann-json3-dev libcli11-dev libspdlog-dev
   python-matplotlib-data

@@ -493,6 +493,8 @@ function updateCompareButton() {
 // ---------------------------------------------------------------------------------------------------------
 // Compare
 
+let jobsById = new Map(); // the compared jobs (id -> {id, label, colour})
+
 async function showCompare() {
   const base = state.baseline;
   const ids = [...state.ticked].filter((id) => id !== base && state.jobs.get(id)?.status === 'done').sort((a, b) => a - b);
@@ -511,11 +513,53 @@ async function showCompare() {
     { id: c.baseline.job, label: c.baseline.label, colour: colourOf(0) },
     ...c.jobs.map((j, k) => ({ id: j.job, label: j.label, colour: colourOf(k + 1) })),
   ];
+  jobsById = new Map(jobs.map((j) => [j.id, j]));
   $('compare-head').textContent = `baseline #${c.baseline.job} ${c.baseline.label}; ${c.jobs.map((j) => `#${j.job} ${j.label}`).join(', ')}`;
+  renderRanking(c);
   renderMetrics(c);
   card.scrollIntoView({ behavior: 'instant', block: 'start' });
   await Promise.all([renderCharts(jobs), renderMaps(jobs)]);
   card.dataset.ready = 'true';
+}
+
+// The layouts ranked by the server (GET /compare `ranking`: the outlet's peak discharge, lowest first).
+function renderRanking(c) {
+  const box = $('ranking');
+  box.replaceChildren();
+  const r = c.ranking;
+  if (!r) {
+    box.append(Object.assign(document.createElement('p'), { className: 'muted small', textContent: 'No ranking: these runs have no cross-section (the ranking key is the outlet\'s peak discharge).' }));
+    return;
+  }
+  const key = document.createElement('p');
+  key.className = 'ranking-key';
+  key.append(document.createTextNode('Layouts ranked by '), Object.assign(document.createElement('strong'), { textContent: `the peak discharge at the outlet (${c.outlet})` }),
+    document.createTextNode(', lowest first: less debris leaving the reach is the better layout.'));
+  const list = document.createElement('ol');
+  list.className = 'ranking-list';
+  const ranks = r.layouts.map((l) => l.rank);
+  const tied = (rank) => ranks.filter((x) => x === rank).length > 1;
+  for (const l of r.layouts) {
+    const li = document.createElement('li');
+    li.dataset.job = l.job;
+    li.dataset.rank = l.rank;
+    li.dataset.value = l.value == null ? '' : String(l.value);
+    const job = jobsById.get(l.job);
+    if (job) {
+      const sw = Object.assign(document.createElement('span'), { className: 'swatch' });
+      sw.style.background = job.colour;
+      li.append(sw);
+    }
+    li.append(Object.assign(document.createElement('span'), { className: 'rank', textContent: `${l.rank}.` }),
+      Object.assign(document.createElement('span'), { className: 'rank-label', textContent: `#${l.job} ${l.label}${l.baseline ? ' (baseline)' : ''}` }),
+      Object.assign(document.createElement('span'), { className: 'num', textContent: l.value == null ? 'no value' : `${shortNumber(l.value)} m³/s` }));
+    if (l.rank === 1 && !tied(1)) li.append(Object.assign(document.createElement('span'), { className: 'best', textContent: 'best' }));
+    else if (tied(l.rank)) li.append(Object.assign(document.createElement('span'), { className: 'tie', textContent: 'tied' }));
+    list.append(li);
+  }
+  box.append(key, list);
+  if (new Set(ranks).size === 1 && r.layouts.length > 1)
+    box.append(Object.assign(document.createElement('p'), { className: 'muted small', textContent: 'Every layout ties on this key (the same peak discharge at the outlet: in these runs perhaps none reached it); the decision metrics below tell them apart.' }));
 }
 
 function renderMetrics(c) {
@@ -544,9 +588,14 @@ function renderMetrics(c) {
     if ((kind === 'difference' || kind === 'percent') && v != null && v !== 0) d.classList.add(v > 0 ? 'up' : 'down');
     return d;
   };
+  let previous = null;
   for (const m of c.metrics) {
     const tr = document.createElement('tr');
     tr.dataset.metric = m.metric;
+    tr.dataset.decision = String(Boolean(m.decision));
+    if (m.decision) tr.classList.add('decision');
+    else if (previous?.decision) tr.classList.add('first-other');
+    previous = m;
     const differs = m.difference.some((d) => d != null && d !== 0);
     tr.dataset.differs = differs;
     tr.append(Object.assign(document.createElement('th'), { scope: 'row', textContent: m.metric }));
@@ -556,15 +605,25 @@ function renderMetrics(c) {
     });
     body.append(tr);
   }
+  // Opens on the decision metrics; with none (a scene without monitors), on every metric.
+  const decisions = c.metrics.filter((m) => m.decision).length;
+  $('all-metrics').checked = decisions === 0;
+  $('all-metrics').disabled = decisions === 0;
+  table.dataset.decisions = decisions;
   filterMetrics();
 }
 
 function filterMetrics() {
   const q = $('metric-filter').value.trim().toLowerCase();
   const only = $('only-diff').checked;
-  for (const tr of $('compare-table').tBodies[0].rows) {
-    tr.hidden = (q && !tr.dataset.metric.toLowerCase().includes(q)) || (only && tr.dataset.differs !== 'true');
+  const all = $('all-metrics').checked;
+  let shown = 0;
+  const rows = $('compare-table').tBodies[0].rows;
+  for (const tr of rows) {
+    tr.hidden = (!all && tr.dataset.decision !== 'true') || (q && !tr.dataset.metric.toLowerCase().includes(q)) || (only && tr.dataset.differs !== 'true');
+    shown += !tr.hidden;
   }
+  $('metric-count').textContent = `${shown} of ${rows.length} metrics${all ? '' : ' (the decision metrics; tick “all metrics” for the rest)'}`;
 }
 
 async function seriesOf(job, name) {
@@ -614,6 +673,7 @@ async function renderCharts(jobs) {
 
 async function renderMaps(jobs) {
   const box = $('maps');
+  for (const f of box.querySelectorAll('figure.map')) f.__map?.remove();
   box.replaceChildren();
   await Promise.all(jobs.map((j) => drawMap(box, j)));
 }
@@ -650,6 +710,7 @@ function wire() {
   $('compare-btn').addEventListener('click', showCompare);
   $('metric-filter').addEventListener('input', filterMetrics);
   $('only-diff').addEventListener('change', filterMetrics);
+  $('all-metrics').addEventListener('change', filterMetrics);
 }
 
 wire();

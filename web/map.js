@@ -1,37 +1,116 @@
-// The maximum-depth map of a terrain job: map.png (hillshade and depth, drawn by the run) under an SVG layer
-// with the structures, protected zones, release and cross-sections from GET /jobs/{id}/map.json, placed by
-// the raster's extent (the PNG enlarges each raster cell by a whole factor, so cell units fit both).
+// The map of a terrain job (docs/web.md, "The map"): Leaflet (web/package.json; the build copies it to
+// /web/vendor) in the rasters' projected metres, with no basemap from the network. The hillshade at the
+// bottom, one coloured raster at a time (depth, speed, pressure, intensity, ...: GET /jobs/{id}/rasters/{name}.png)
+// with its legend drawn from the colour scale map.json serves, and the structures, protected zones,
+// cross-sections and release as vector layers with popups naming them. Below the map, the job's downloads.
+import * as L from '/web/vendor/leaflet-src.esm.js';
 import { API, get } from '/web/api.js';
 
-const SVG = 'http://www.w3.org/2000/svg';
-
-function el(name, attrs = {}, parent = null) {
-  const e = document.createElementNS(SVG, name);
-  for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, String(v));
-  if (parent) parent.append(e);
-  return e;
+// The working CRS as Leaflet's plain CRS: lng = easting, lat = northing, in metres; the transformation puts
+// the raster's north-west corner at the origin so that pixel numbers stay small at any zoom.
+function crsFor(r) {
+  return L.extend({}, L.CRS.Simple, { transformation: new L.Transformation(1, -r.west, -1, r.north) });
 }
 
-// Map coordinates (working CRS, metres) to raster cell units (x east from the west edge, y down from north).
-function projector(r) {
-  return ([x, y]) => [(x - r.west) / r.dx, (r.north - y) / r.dy];
+const latLngs = (points) => points.map(([x, y]) => [y, x]);
+
+const STYLE = {
+  structure: { color: '#d62728', weight: 4, fillOpacity: 0.15 },
+  zone: { color: '#7b3294', weight: 2, dashArray: '6 4', fillOpacity: 0 }, // filled (clickable inside) but clear: the raster shows through
+  section: { color: '#111111', weight: 2 },
+  release: { color: '#8c510a', weight: 2, fillOpacity: 0.1 },
+};
+
+// A vector feature of map.json ({name, geometry}) as Leaflet layers: its path, named `what` in its popup and
+// its hover tooltip (which follows the pointer), and (but for the release) a permanent label with its name.
+// Labels are placed from the bounding box: Leaflet's own centre of a polygon loses its digits at UTM
+// northings of 5e6 m and puts the label kilometres away.
+function feature(f, kind, what) {
+  const ll = latLngs(f.geometry.type === 'Polygon' ? f.geometry.coordinates[0] : f.geometry.coordinates);
+  const layer = f.geometry.type === 'Polygon' ? L.polygon(ll, STYLE[kind]) : L.polyline(ll, STYLE[kind]);
+  layer.bindPopup(what);
+  layer.bindTooltip(what, { sticky: true });
+  layer.feature = { kind, name: f.name || '' };
+  if (kind === 'release') return [layer];
+  const box = L.latLngBounds(ll);
+  // A zone's label in its north-west corner, inside: zones nest (a village on a plain), their centres may meet.
+  // A section's above its northern end, clear of the flow it gauges.
+  const at = kind === 'zone' ? [box.getNorth(), box.getWest()] : kind === 'section' ? [box.getNorth(), box.getCenter().lng] : box.getCenter();
+  const direction = { zone: 'right', section: 'top', structure: 'center' }[kind];
+  const label = L.tooltip({ permanent: true, direction, offset: kind === 'zone' ? [4, 10] : [0, 0], className: `map-label ${kind}`, interactive: false })
+    .setLatLng(at)
+    .setContent(f.name);
+  return [layer, label];
 }
 
-function pathOf(geometry, project) {
-  const rings = geometry.type === 'Polygon' ? geometry.coordinates : [geometry.coordinates];
-  return rings
-    .map((ring) => ring.map((p, i) => `${i ? 'L' : 'M'}${project(p).map((v) => v.toFixed(2)).join(' ')}`).join(' ') +
-      (geometry.type === 'Polygon' ? ' Z' : ''))
-    .join(' ');
+const numberText = (v) => String(Number(v.toPrecision(4)));
+
+// The legend of a raster layer from its colour scale: a swatch and the scale's own label per stop (the stop's
+// exact value in data-value), the ramp's gradient above them.
+function legendOf(layer) {
+  const box = document.createElement('div');
+  box.className = 'legend';
+  box.dataset.layer = layer.name;
+  const title = document.createElement('div');
+  title.className = 'legend-title';
+  title.textContent = `${layer.title}${layer.scale.classes ? '' : ` [${layer.unit}]`}`;
+  box.append(title);
+  const stops = layer.scale.stops;
+  if (!layer.scale.classes) {
+    const bar = document.createElement('div');
+    bar.className = 'legend-ramp';
+    bar.style.background = `linear-gradient(to right, ${stops.map((s) => s.colour).join(', ')})`;
+    box.append(bar);
+  }
+  const list = document.createElement('ul');
+  for (const s of stops) {
+    const li = document.createElement('li');
+    li.dataset.value = String(s.value);
+    li.dataset.colour = s.colour;
+    const sw = document.createElement('span');
+    sw.className = 'swatch';
+    sw.style.background = s.colour;
+    li.append(sw, document.createTextNode(s.label));
+    list.append(li);
+  }
+  box.append(list);
+  const note = document.createElement('div');
+  note.className = 'legend-note';
+  const sc = layer.scale;
+  note.textContent = sc.classes ? 'no colour: not inundated'
+    : !sc.zero_transparent ? 'no colour: never reached'
+    : sc.min > 0 ? `no colour: below ${numberText(sc.min)} ${layer.unit} or no data` : 'no colour: zero or no data';
+  box.append(note);
+  return box;
 }
 
-function centre(geometry, project) {
-  const pts = (geometry.type === 'Polygon' ? geometry.coordinates[0] : geometry.coordinates).map(project);
-  const n = pts.length || 1;
-  return [pts.reduce((s, p) => s + p[0], 0) / n, pts.reduce((s, p) => s + p[1], 0) / n];
+// The job's files: every raster (GeoTIFF), the hazard polygons, the depth picture and the series (CSV).
+function downloads(job, info, series) {
+  const box = document.createElement('details');
+  box.className = 'downloads';
+  box.open = true;
+  const summary = document.createElement('summary');
+  summary.textContent = `Downloads of job #${job.id}`;
+  const list = document.createElement('ul');
+  const link = (href, text, type) => {
+    const li = document.createElement('li');
+    const a = Object.assign(document.createElement('a'), { href, textContent: text });
+    a.setAttribute('download', '');
+    a.dataset.type = type;
+    li.append(a);
+    list.append(li);
+  };
+  for (const l of info?.layers || []) link(l.download, `${l.name}.tif`, 'image/tiff');
+  if (info) {
+    link(`${API}/jobs/${job.id}/vectors/hazard.gpkg`, 'hazard.gpkg', 'application/geopackage+sqlite3');
+    link(info.image, 'max_depth.png', 'image/png');
+  }
+  for (const s of series) link(`${API}/jobs/${job.id}/series/${encodeURIComponent(s)}.csv`, `${s}.csv`, 'text/csv');
+  box.append(summary, list);
+  return box;
 }
 
-// Appends a figure for job `job` ({id, label, colour}); resolves once the picture and its layer are drawn.
+// Appends a figure for job `job` ({id, label, colour}); resolves once the map's first raster has loaded.
 export async function drawMap(container, job) {
   const figure = document.createElement('figure');
   figure.className = 'map';
@@ -44,62 +123,97 @@ export async function drawMap(container, job) {
   figure.append(caption);
   container.append(figure);
 
-  let info;
+  const series = (await get(`/jobs/${job.id}/metrics`).catch(() => ({ series: [] }))).series || [];
+  let info = null;
   try {
     info = await get(`/jobs/${job.id}/map.json`);
   } catch (e) {
     const p = document.createElement('p');
     p.className = 'muted small';
     p.textContent = e.status === 404 ? 'no map: not a terrain scene' : `map unavailable: ${e.message}`;
-    figure.append(p);
+    figure.append(p, downloads(job, null, series));
     return;
   }
   const r = info.raster;
-  const project = projector(r);
-  const frame = document.createElement('div');
-  frame.className = 'map-frame';
-  frame.style.aspectRatio = `${r.nx} / ${r.ny}`;
-  const img = document.createElement('img');
-  img.alt = `maximum flow depth of job ${job.id}`;
-  img.src = `${API}/jobs/${job.id}/map.png`;
-  const svg = el('svg', { viewBox: `0 0 ${r.nx} ${r.ny}`, preserveAspectRatio: 'none', role: 'img' });
-  svg.setAttribute('aria-label', `structures and zones of job ${job.id}`);
-  const font = Math.max(r.nx, r.ny) / 40;
-  const label = (text, [x, y], cls) => {
-    const t = el('text', { x: x.toFixed(2), y: y.toFixed(2), 'font-size': font.toFixed(2), class: `label ${cls}` }, svg);
-    t.textContent = text;
+  // The map, and beside it (below on a phone) the layer list and the legend, so that neither hides the map.
+  const body = document.createElement('div');
+  body.className = 'map-body';
+  const holder = document.createElement('div');
+  holder.className = 'map-frame';
+  const side = document.createElement('div');
+  side.className = 'map-side';
+  const legendBox = document.createElement('div');
+  legendBox.className = 'legend-box';
+  body.append(holder, side);
+  figure.append(body);
+  const bounds = L.latLngBounds([r.south, r.west], [r.north, r.east]);
+  // The view holds the rasters and every shape (protected zones may lie beyond the rasters); the frame's height
+  // follows that view's shape, within limits, so a long narrow reach does not sit in a tall empty box.
+  const view = L.latLngBounds(bounds.getSouthWest(), bounds.getNorthEast());
+  const shapes = [...info.structures, ...info.protected_zones, ...info.sections, ...(info.release ? [info.release] : [])];
+  for (const f of shapes)
+    for (const p of latLngs(f.geometry.type === 'Polygon' ? f.geometry.coordinates[0] : f.geometry.coordinates)) view.extend(p);
+  const aspect = (view.getNorth() - view.getSouth()) / (view.getEast() - view.getWest());
+  const least = window.matchMedia('(max-width: 640px)').matches ? 200 : 320; // a phone's screen is short
+  holder.style.height = `${Math.round(Math.min(480, Math.max(least, holder.clientWidth * aspect + 40)))}px`;
+  const map = L.map(holder, { crs: crsFor(r), attributionControl: false, zoomSnap: 0.25, zoomDelta: 0.5 });
+  // Fit the view, and fit it again when the frame changes size (a phone turned, a window resized): zoom limits
+  // from one step out to six in.
+  const fit = () => {
+    map.setMinZoom(-Infinity).setMaxZoom(Infinity);
+    map.fitBounds(view, { padding: [12, 12], animate: false });
+    map.setMinZoom(map.getZoom() - 1).setMaxZoom(map.getZoom() + 6);
   };
-  const shape = (geometry, cls, name) => {
-    const p = el('path', { d: pathOf(geometry, project), class: cls, 'vector-effect': 'non-scaling-stroke' }, svg);
-    const title = el('title', {}, p);
-    title.textContent = name;
-    return p;
+  fit();
+  map.on('resize', fit);
+  map.setMaxBounds(view.pad(0.5));
+  figure.__map = map; // for the browser test
+
+  if (info.hillshade) L.imageOverlay(info.hillshade, bounds, { className: 'hillshade', alt: 'hillshade' }).addTo(map);
+  const rasters = {};
+  const byTitle = new Map();
+  for (const l of info.layers) {
+    const overlay = L.imageOverlay(l.image, bounds, { className: 'raster', opacity: 0.85, alt: l.title });
+    overlay.runoutLayer = l;
+    rasters[l.title] = overlay;
+    byTitle.set(l.title, l);
+  }
+  const groups = {
+    structures: L.layerGroup(info.structures.flatMap((s) => feature(s, 'structure', `${s.type.replace(/_/g, ' ')} ${s.name}`))),
+    'protected zones': L.layerGroup(info.protected_zones.flatMap((z) => feature(z, 'zone', `protected zone ${z.name}`))),
+    'cross-sections': L.layerGroup(info.sections.flatMap((s) => feature(s, 'section', `cross-section ${s.name} (series ${s.series})`))),
+    release: L.layerGroup(info.release ? feature({ name: 'release', ...info.release }, 'release', 'release area') : []),
   };
-  for (const z of info.protected_zones) {
-    shape(z.geometry, 'zone', `protected zone ${z.name}`).dataset.zone = z.name;
-    // At the zone's north-west corner, inside: zones nest (a village on a plain), their centres may meet.
-    const pts = z.geometry.coordinates[0].map(project);
-    const x = Math.min(...pts.map((p) => p[0])), y = Math.min(...pts.map((p) => p[1]));
-    label(z.name, [x + font * 0.3, y + font * 1.1], 'zone');
-  }
-  if (info.release) shape(info.release.geometry, 'release', 'release');
-  for (const s of info.sections) {
-    shape(s.geometry, 'section', `cross-section ${s.name}`).dataset.section = s.name;
-    label(s.name, project(s.geometry.coordinates[0]), 'section');
-  }
-  for (const s of info.structures) {
-    shape(s.geometry, `structure ${s.type}`, `${s.type.replace('_', ' ')} ${s.name}`).dataset.structure = s.name;
-    label(s.name, centre(s.geometry, project), 'structure');
-  }
-  frame.append(img, svg);
-  figure.append(frame);
+  for (const g of Object.values(groups)) g.addTo(map);
+  // Each path names what it draws (for people: the popup; for the test: data attributes).
+  for (const [name, g] of Object.entries(groups))
+    g.eachLayer((l) => {
+      if (!l.feature) return; // a label
+      const el = l.getElement();
+      el.dataset.kind = l.feature.kind;
+      el.dataset.name = l.feature.name;
+      el.dataset.group = name;
+    });
+  const control = L.control.layers(rasters, groups, { collapsed: false }).addTo(map);
+  side.append(control.getContainer(), legendBox); // its listeners stay on its elements
+  L.control.scale({ imperial: false, position: 'bottomleft' }).addTo(map);
+  const showLegend = (l) => legendBox.replaceChildren(legendOf(l));
+  map.on('baselayerchange', (e) => showLegend(byTitle.get(e.name)));
+  map.on('zoomend', () => (figure.dataset.zoom = String(map.getZoom())));
+  figure.dataset.zoom = String(map.getZoom());
+
+  const first = info.layers[0];
   const note = document.createElement('p');
   note.className = 'muted small';
-  note.textContent = `${info.crs || 'working CRS'}; ${(r.east - r.west).toFixed(2)} × ${(r.north - r.south).toFixed(2)} m, cells ${r.dx} m`;
-  figure.append(note);
-  await new Promise((resolve) => {
-    if (img.complete) resolve();
-    img.addEventListener('load', resolve, { once: true });
-    img.addEventListener('error', resolve, { once: true });
+  note.textContent = `${info.crs || 'working CRS'}; ${(r.east - r.west).toFixed(2)} × ${(r.north - r.south).toFixed(2)} m, cells ${r.dx} m. Pick a raster in the layer list; click a shape for its name.`;
+  figure.append(note, downloads(job, info, series));
+  if (!first) return;
+  const overlay = rasters[first.title];
+  const loaded = new Promise((resolve) => {
+    overlay.once('load', resolve);
+    overlay.once('error', resolve);
   });
+  overlay.addTo(map);
+  showLegend(first);
+  await loaded;
 }

@@ -83,6 +83,10 @@ DecisionMetrics::DecisionMetrics(const std::vector<std::string>& metric_names) {
   if (!sections.empty()) outlet_ = sections.back();
 }
 
+std::string DecisionMetrics::ranking_metric() const {
+  return outlet_.empty() ? std::string() : kSection + outlet_ + ".peak_discharge_m3_s";
+}
+
 std::optional<DecisionRank> DecisionMetrics::rank(const std::string& metric) const {
   if (!outlet_.empty()) {
     if (metric == kSection + outlet_ + ".peak_discharge_m3_s") return DecisionRank{1, {}, 0};

@@ -8,6 +8,7 @@
 #include <ctime>
 #include <sstream>
 
+#include "runout/scenarios/raster_map.hpp"
 #include "runout/terrain/hazard.hpp"
 
 #ifndef RUNOUT_VERSION
@@ -43,19 +44,11 @@ float grid_max(const terrain::Grid& g) {
   return m;
 }
 
-// A blue-to-red ramp over [lo, hi] in five stops, labelled with the unit.
-std::vector<terrain::StyleStop> ramp(double lo, double hi, const std::string& unit, double label_scale = 1.0,
-                                     const std::string& label_unit = "") {
-  static const char* colours[] = {"#ffffcc", "#a1dab4", "#41b6c4", "#2c7fb8", "#253494"};
-  if (!(hi > lo)) hi = lo + 1.0;
+// The colour scale of a raster (raster_map.hpp: the web map colours it the same way) as QGIS style stops.
+std::vector<terrain::StyleStop> style(const std::string& layer, double max_value, double threshold) {
   std::vector<terrain::StyleStop> stops;
-  for (int k = 0; k < 5; ++k) {
-    const double v = lo + (hi - lo) * k / 4.0;
-    std::ostringstream label;
-    label.precision(3);
-    label << v * label_scale << ' ' << (label_unit.empty() ? unit : label_unit);
-    stops.push_back({v, colours[k], label.str()});
-  }
+  for (const auto& st : hazard_colour_scale(layer, max_value, threshold).stops)
+    stops.push_back({st.value, st.colour, st.label});
   return stops;
 }
 
@@ -96,14 +89,16 @@ json write_hazard_outputs(const terrain::InundationGrid& g, const OutputSettings
             {"RUNOUT_VERSION", RUNOUT_VERSION}}};
   const float hmax = grid_max(g.max_depth()), vmax = grid_max(g.max_speed()), qmax = grid_max(g.max_hv()),
               pmax = grid_max(g.max_pressure());
-  w.raster("max_depth", g.max_depth(), "maximum flow depth over the run", "m", ramp(threshold, hmax, "m"));
-  w.raster("max_speed", g.max_speed(), "maximum particle speed over the run", "m/s", ramp(0, vmax, "m/s"));
-  w.raster("deposit_depth", g.depth(), "flow depth at the end of the run", "m", ramp(threshold, grid_max(g.depth()), "m"));
-  w.raster("max_hv", g.max_hv(), "maximum over time of depth x depth-averaged speed", "m2/s", ramp(0, qmax, "m2/s"));
+  w.raster("max_depth", g.max_depth(), "maximum flow depth over the run", "m", style("max_depth", hmax, threshold));
+  w.raster("max_speed", g.max_speed(), "maximum particle speed over the run", "m/s", style("max_speed", vmax, threshold));
+  w.raster("deposit_depth", g.depth(), "flow depth at the end of the run", "m",
+           style("deposit_depth", grid_max(g.depth()), threshold));
+  w.raster("max_hv", g.max_hv(), "maximum over time of depth x depth-averaged speed", "m2/s",
+           style("max_hv", qmax, threshold));
   w.raster("arrival_time", g.arrival_time(), "first time the depth reached the inundation threshold (nodata: never)",
-           "s", ramp(0, grid_max(g.arrival_time()), "s"));
+           "s", style("arrival_time", grid_max(g.arrival_time()), threshold));
   w.raster("max_pressure", g.max_pressure(), "maximum hydrodynamic impact pressure rho v^2", "Pa",
-           ramp(0, pmax, "Pa", 1e-3, "kPa"));
+           style("max_pressure", pmax, threshold));
 
   const terrain::Grid classes = terrain::intensity_classes(g.max_depth(), g.max_hv(), it, threshold);
   auto meta = w.run;
@@ -113,8 +108,7 @@ json write_hazard_outputs(const terrain::InundationGrid& g, const OutputSettings
                   "h >= " + text(it.medium_depth) + " m or h v >= " + text(it.medium_hv) + " m2/s"});
   terrain::write_class_geotiff((dir / "intensity.tif").string(), classes,
                                {"debris-flow intensity class (1 low, 2 medium, 3 high)", "class", meta});
-  terrain::write_qml((dir / "intensity.qml").string(),
-                     {{1, "#ffff00", "low"}, {2, "#ff9900", "medium"}, {3, "#e31a1c", "high"}}, true);
+  terrain::write_qml((dir / "intensity.qml").string(), style("intensity", 3, threshold), true);
   w.files.push_back("rasters/intensity.tif");
 
   terrain::Grid inundated = g.max_depth().like(0.0f);
@@ -122,6 +116,10 @@ json write_hazard_outputs(const terrain::InundationGrid& g, const OutputSettings
   terrain::write_class_polygons((dir / "hazard.gpkg").string(),
                                 {{"inundated", &inundated, {"inundated"}}, {"intensity", &classes, terrain::intensity_labels()}});
   w.files.push_back("rasters/hazard.gpkg");
+  // The terrain in grey, under the web map's coloured rasters (raster_map.hpp): the depth map's renderer with
+  // no depth to draw.
+  terrain::write_depth_map_png((dir / "hillshade.png").string(), g.terrain(), g.terrain().like(terrain::Grid::nodata),
+                               threshold);
 
   json areas = json::object();
   for (int k = 1; k <= 3; ++k) {

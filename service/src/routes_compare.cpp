@@ -1,7 +1,44 @@
 // Routes: GET /compare: stored metrics of done jobs (listed, or a sweep's) side by side (server_impl.hpp, docs/service.md).
+#include "runout/scenarios/decision_metrics.hpp"
 #include "server_impl.hpp"
 
 namespace runout::service {
+namespace {
+
+// Every layout of the comparison (the baseline among them) ranked by `metric`, lowest first (less discharge
+// at the outlet is the better layout); those without a value last, ties in the order given. Null without a
+// ranking metric (no cross-section among the metrics). Equal values share a rank.
+json ranking(const Comparison& c, const std::string& metric, int64_t base_job, const std::vector<int64_t>& job_ids) {
+  if (metric.empty()) return nullptr;
+  const auto row = std::find_if(c.rows.begin(), c.rows.end(), [&](const Comparison::Row& r) { return r.metric == metric; });
+  struct Entry {
+    int64_t job;
+    std::string label;
+    std::optional<double> value;
+  };
+  std::vector<Entry> entries{{base_job, c.baseline, row != c.rows.end() ? row->baseline : std::nullopt}};
+  for (size_t k = 0; k < job_ids.size(); ++k)
+    entries.push_back({job_ids[k], c.runs[k], row != c.rows.end() ? row->values[k] : std::nullopt});
+  std::stable_sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    if (a.value.has_value() != b.value.has_value()) return a.value.has_value();
+    return a.value && *a.value < *b.value;
+  });
+  // Equal values share a rank (1, 1, 3): a key that cannot tell layouts apart must not seem to.
+  json layouts = json::array();
+  size_t rank = 1;
+  for (size_t k = 0; k < entries.size(); ++k) {
+    if (k > 0 && entries[k].value != entries[k - 1].value) rank = k + 1;
+    layouts.push_back({{"rank", rank},
+                       {"job", entries[k].job},
+                       {"label", entries[k].label},
+                       {"baseline", entries[k].job == base_job},
+                       {"value", entries[k].value ? json(*entries[k].value) : json(nullptr)}});
+  }
+  return {{"metric", metric}, {"order", "ascending"}, {"unit", "m3/s"},
+          {"key", "the outlet's peak discharge, lowest first"}, {"layouts", layouts}};
+}
+
+}  // namespace
 
 void Server::Impl::routes_compare() {
   add("/compare", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
@@ -45,23 +82,32 @@ void Server::Impl::routes_compare() {
       runs.push_back(run_for(id, jobs_field));
     }
     const Comparison c = compare_runs(*store, runs, base_run);
+    // The decision metrics first, by rank (decision_metrics.hpp, as `runout compare` lists them), then the rest
+    // in the store's order (by name); the layouts ranked by the first of them, the outlet's peak discharge.
+    std::vector<std::string> names;
+    std::map<std::string, const Comparison::Row*> by_name;
+    for (const auto& r : c.rows) names.push_back(r.metric), by_name[r.metric] = &r;
+    const DecisionMetrics decision(names);
     auto num = [](const std::optional<double>& v) -> json { return v ? json(*v) : json(nullptr); };
     json rows = json::array();
-    for (const auto& r : c.rows) {
+    for (const auto& name : decision.order(names, true)) {
+      const Comparison::Row& r = *by_name.at(name);
       json values = json::array(), diffs = json::array(), pct = json::array();
       for (size_t k = 0; k < r.values.size(); ++k) {
         values.push_back(num(r.values[k]));
         diffs.push_back(r.values[k] && r.baseline ? json(*r.values[k] - *r.baseline) : json(nullptr));
         pct.push_back(num(r.percent[k]));
       }
-      rows.push_back({{"metric", r.metric}, {"baseline", num(r.baseline)}, {"values", values}, {"difference", diffs},
-                      {"percent", pct}});
+      rows.push_back({{"metric", r.metric}, {"decision", decision.is_decision(r.metric)}, {"baseline", num(r.baseline)},
+                      {"values", values}, {"difference", diffs}, {"percent", pct}});
     }
     json columns = json::array();
     for (size_t k = 0; k < job_ids.size(); ++k) columns.push_back({{"job", job_ids[k]}, {"run_id", runs[k]}, {"label", c.runs[k]}});
     send_json(res, 200,
               {{"baseline", {{"job", base_id}, {"run_id", base_run}, {"label", c.baseline}}},
                {"jobs", columns},
+               {"outlet", decision.outlet().empty() ? json(nullptr) : json(decision.outlet())},
+               {"ranking", ranking(c, decision.ranking_metric(), base_id, job_ids)},
                {"metrics", rows}});
   });
 }

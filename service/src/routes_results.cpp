@@ -1,4 +1,5 @@
-// Routes: a job's results: metrics, series, rasters, map.png and map.json (server_impl.hpp, docs/service.md).
+// Routes: a job's results: metrics, series, rasters (GeoTIFF and coloured PNG), map.png, hillshade.png and map.json (server_impl.hpp, docs/service.md).
+#include "runout/scenarios/raster_map.hpp"
 #include "runout/scenarios/scene_map.hpp"
 #include "server_impl.hpp"
 
@@ -61,6 +62,37 @@ void Server::Impl::routes_results() {
           throw ApiError(400, "name", "raster name must be 1 to 64 of A-Z a-z 0-9 _ . - without '..'");
         raster(m[1].str(), m[2].str() + ".tif", res, "image/tiff; application=geotiff", true);
       });
+  // A raster of the job coloured for the web map (raster_map.hpp): RGBA, one pixel per cell, transparent where
+  // there is nothing to show; map.json's `layers` give each one's colour scale.
+  add(R"(/jobs/(\d{1,18})/rasters/(.+)\.png)", "GET",
+      [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+        only_params(req, {});
+        const std::string name = m[2].str();
+        const auto& layers = map_layers();
+        if (std::find(layers.begin(), layers.end(), name) == layers.end()) {
+          std::string list;
+          for (const auto& n : layers) list += (list.empty() ? "" : ", ") + n;
+          throw ApiError(404, "name", "no raster picture '" + name + "' (accepted: " + list + ")");
+        }
+        const Job j = require_job(m[1].str());
+        (void)run_of(j);
+        std::optional<RasterPicture> picture;
+        try {
+          picture = render_run_raster(out_dir_of(j), name);
+        } catch (const std::exception& e) {
+          throw ApiError(500, "name", "cannot render job " + m[1].str() + "'s " + name + ".tif: " + e.what());
+        }
+        if (!picture)
+          throw ApiError(404, "name", "job " + m[1].str() + " has no raster '" + name + "' (rasters exist for terrain scenes)");
+        res.status = 200;
+        res.set_content(picture->png, "image/png");
+      });
+  // The terrain in grey (written by the run with its rasters), the web map's bottom layer.
+  add(R"(/jobs/(\d{1,18})/hillshade\.png)", "GET",
+      [raster](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+        only_params(req, {});
+        raster(m[1].str(), "hillshade.png", res, "image/png", false);
+      });
   add(R"(/jobs/(\d{1,18})/map\.png)", "GET",
       [this, raster](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
         only_params(req, {});
@@ -106,10 +138,30 @@ void Server::Impl::routes_results() {
     if (map.release) release = {{"geometry", geometry(*map.release)}};
     const MapExtent& g = *extent;
     const std::string self = kPrefix + "/jobs/" + m[1].str();
+    json layers = json::array();
+    try {
+      for (const auto& sc : run_raster_scales(out_dir_of(j))) {
+        json stops = json::array();
+        for (const auto& st : sc.stops) stops.push_back({{"value", st.value}, {"colour", st.colour}, {"label", st.label}});
+        layers.push_back({{"name", sc.layer},
+                          {"title", sc.title},
+                          {"unit", sc.unit},
+                          {"image", self + "/rasters/" + sc.layer + ".png"},
+                          {"download", self + "/rasters/" + sc.layer + ".tif"},
+                          {"scale",
+                           {{"classes", sc.classes}, {"min", sc.min}, {"max", sc.max},
+                            {"zero_transparent", sc.zero_transparent}, {"stops", stops}}}});
+      }
+    } catch (const std::exception& e) {
+      throw ApiError(500, "id", "cannot read the rasters of job " + m[1].str() + ": " + e.what());
+    }
+    const bool shaded = fs::is_regular_file(run_hillshade(out_dir_of(j)));
     send_json(res, 200,
               {{"job", j.id},
                {"run_id", run},
                {"image", self + "/map.png"},
+               {"hillshade", shaded ? json(self + "/hillshade.png") : json(nullptr)},
+               {"layers", layers},
                {"crs", g.crs},
                {"raster",
                 {{"nx", g.nx}, {"ny", g.ny}, {"dx", g.dx}, {"dy", g.dy},

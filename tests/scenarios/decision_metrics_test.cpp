@@ -42,6 +42,11 @@ TEST(DecisionMetrics, TheSectionNamedOutletIsTheOutletWhateverItsPlace) {
             "lower_outlet");
 }
 
+TEST(DecisionMetrics, LayoutsAreRankedByTheOutletsPeakDischarge) {
+  EXPECT_EQ(DecisionMetrics(kFlume).ranking_metric(), "monitors.section.Outlet.peak_discharge_m3_s");
+  EXPECT_EQ(DecisionMetrics({"terrain.inundation.runout_m"}).ranking_metric(), "");  // no section, no ranking
+}
+
 TEST(DecisionMetrics, WithoutAnOutletNameTheLastSectionInNaturalOrderIsTheOutlet) {
   const DecisionMetrics dm({"monitors.section.S2.peak_discharge_m3_s", "monitors.section.S10.peak_discharge_m3_s",
                             "monitors.section.S3.peak_discharge_m3_s"});

@@ -7,6 +7,7 @@
 // Scenes are tiny 2D dam breaks (a few hundred particles).
 #include "service/service_harness.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 
@@ -98,6 +99,16 @@ TEST_F(Service, RoundTripMatchesTheCliAndCompareGivesTheDifferences) {
     differing += v != base;
   }
   EXPECT_GT(differing, 3u);  // a lower column: mass, energy, particle count differ
+  // A tank has no cross-section, structure or terrain: no decision metric, no outlet, no ranking, and the
+  // rows in the store's order (by name).
+  std::vector<std::string> order;
+  for (const auto& row : cmp.body.at("metrics")) {
+    EXPECT_FALSE(row.at("decision").get<bool>()) << row.at("metric");
+    order.push_back(row.at("metric"));
+  }
+  EXPECT_TRUE(std::is_sorted(order.begin(), order.end()));
+  EXPECT_TRUE(cmp.body.at("outlet").is_null());
+  EXPECT_TRUE(cmp.body.at("ranking").is_null());
   EXPECT_EQ(cmp.body.at("metrics").size(), names.size());
   // A job that is not done cannot be compared; an unknown one is 404.
   EXPECT_EQ(get("/compare?jobs=" + std::to_string(ja) + ",999").status, 404);
@@ -354,6 +365,8 @@ TEST_F(Service, OpenApiDocumentDescribesEveryRoute) {
       {"/jobs/{id}/rasters/{name}.tif", {"get"}},
       {"/jobs/{id}/map.png", {"get"}},
       {"/jobs/{id}/map.json", {"get"}},
+      {"/jobs/{id}/rasters/{name}.png", {"get"}},
+      {"/jobs/{id}/hillshade.png", {"get"}},
       {"/compare", {"get"}},
       {"/schema/scene", {"get"}}};
   const json& paths = doc.body.at("paths");
@@ -365,7 +378,8 @@ TEST_F(Service, OpenApiDocumentDescribesEveryRoute) {
   }
   // Every route answers: an unknown id is 404 (not 405), a wrong method 405 with Allow.
   for (const std::string p : {"/scenes/9", "/jobs/9", "/jobs/9/metrics", "/jobs/9/series/run.csv", "/jobs/9/rasters/max_depth.tif",
-                              "/jobs/9/map.png", "/jobs/9/map.json", "/sweeps/9", "/jobs/9/vectors/hazard.gpkg"})
+                              "/jobs/9/map.png", "/jobs/9/map.json", "/sweeps/9", "/jobs/9/vectors/hazard.gpkg",
+                              "/jobs/9/rasters/max_depth.png", "/jobs/9/hillshade.png"})
     EXPECT_EQ(get(p).status, 404) << p;
   const Reply wrong = request("PUT", "/api/v1/sweeps", "{}");
   EXPECT_EQ(wrong.status, 405);

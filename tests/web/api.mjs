@@ -4,7 +4,9 @@
 //    boundary at dp 0.02), the steps and seconds follow the cost model's documented formula from its own inputs, the errors
 //    are POST /jobs's (a problem document listing every invalid field), it needs the token when there is one, and it writes nothing;
 //  - map.json: 409 before the job has results, 404 for a 2D job; for a flume layout the extent equals the
-//    raster's cells and the geometries are the resolved scene's.
+//    raster's cells and the geometries are the resolved scene's; its raster layers with their colour scales,
+//    each rasters/{name}.png an RGBA PNG of a pixel per cell; the hillshade;
+//  - compare: the decision metrics first, the layouts ranked by the outlet's peak discharge.
 //
 //   node tests/web/api.mjs --runout BUILD/runout --flume scenarios/flume
 import { spawn } from 'node:child_process';
@@ -163,6 +165,42 @@ try {
   // PNG IHDR: width and height at bytes 16-23; the picture enlarges every cell by the same whole factor.
   const w = bytes.readUInt32BE(16), h = bytes.readUInt32BE(20);
   check(w % r.nx === 0 && h % r.ny === 0 && w / r.nx === h / r.ny, `map.png ${w}x${h} is the ${r.nx}x${r.ny} cells enlarged`);
+
+  // The coloured rasters: map.json lists them with their colour scales; each PNG is RGBA, a pixel per cell.
+  equal(mj.json.layers.map((l) => l.name), ['max_depth', 'max_speed', 'max_pressure', 'intensity', 'arrival_time', 'max_hv', 'deposit_depth'], 'map layers');
+  for (const l of mj.json.layers) {
+    equal([l.image, l.download], [`/api/v1/jobs/${fj.json.id}/rasters/${l.name}.png`, `/api/v1/jobs/${fj.json.id}/rasters/${l.name}.tif`], `${l.name} paths`);
+    const st = l.scale.stops;
+    check(st.length >= 3 && st.every((x, k) => k === 0 || x.value > st[k - 1].value) && l.scale.min === st[0].value && l.scale.max === st[st.length - 1].value,
+      `${l.name} scale ascending from min to max: ${JSON.stringify(l.scale)}`);
+    const pic = await fetch(`${s.base}/jobs/${fj.json.id}/rasters/${l.name}.png`);
+    const b = Buffer.from(await pic.arrayBuffer());
+    equal([pic.status, pic.headers.get('content-type')], [200, 'image/png'], `rasters/${l.name}.png`);
+    // IHDR: width, height, bit depth 8, colour type 6 (RGBA).
+    equal([b.readUInt32BE(16), b.readUInt32BE(20), b[24], b[25]], [r.nx, r.ny, 8, 6], `${l.name}.png is RGBA, a pixel per cell`);
+  }
+  const depth = mj.json.layers[0].scale;
+  equal(depth.min, flume.output.inundation_threshold, 'the depth scale starts at the run\'s inundation threshold');
+  equal(mj.json.layers.find((l) => l.name === 'intensity').scale.stops.map((x) => x.label), ['low', 'medium', 'high'], 'intensity classes');
+  const unknown = await call(s, 'GET', `/jobs/${fj.json.id}/rasters/elevation.png`);
+  equal([unknown.status, unknown.json?.errors?.[0]?.field], [404, 'name'], 'an unknown raster picture is 404 naming the field');
+  check(/max_depth, max_speed/.test(unknown.json?.errors?.[0]?.message || ''), `the 404 lists the layers: ${unknown.text}`);
+  equal((await call(s, 'GET', `/jobs/${job.json.id}/rasters/max_depth.png`)).status, 404, 'a 2D job has no raster pictures');
+  equal(mj.json.hillshade, `/api/v1/jobs/${fj.json.id}/hillshade.png`, 'the hillshade path');
+  const hs = await fetch(`${s.base}/jobs/${fj.json.id}/hillshade.png`);
+  equal([hs.status, hs.headers.get('content-type')], [200, 'image/png'], 'hillshade.png');
+
+  // GET /compare: the decision metrics first (the outlet's peak discharge leading), the layouts ranked.
+  const cmp = await call(s, 'GET', `/compare?jobs=${fj.json.id}`);
+  equal(cmp.status, 200, 'compare one flume job');
+  const flags = cmp.json.metrics.map((x) => x.decision);
+  const nd = flags.filter(Boolean).length;
+  check(nd > 0 && flags.slice(0, nd).every(Boolean) && !flags.slice(nd).includes(true), `decision rows first (${nd})`);
+  equal(cmp.json.outlet, 'Outlet', 'the flume\'s outlet');
+  equal(cmp.json.metrics[0].metric, 'monitors.section.Outlet.peak_discharge_m3_s', 'the first decision metric');
+  equal(cmp.json.ranking.layouts.map((x) => [x.rank, x.job, x.baseline, x.value]), [[1, fj.json.id, true, cmp.json.metrics[0].baseline]], 'the one layout ranked');
+  const rest = cmp.json.metrics.slice(nd).map((x) => x.metric);
+  equal(rest, [...rest].sort(), 'the other metrics by name');
 
   // With a token: the estimate needs it, like every POST.
   const t = await start(path.join(scratch, 'b'), ['--workers', '0'], { RUNOUT_TOKEN: 'sesame' });

@@ -3,7 +3,8 @@
 // scratch database, and through the page: stores a short flume scene (after a refused one, whose API message
 // must show beside the scene field), picks one check dam, checks the estimate against POST /estimate, submits
 // that layout and the baseline without it, waits for both, opens the compare view against the baseline and
-// checks every number of the table against GET /compare, checks the charts and both maps, types a bad dp
+// checks every number of the table against GET /compare, the decision metrics first and the layouts ranked,
+// checks the charts, both maps (Leaflet: rasters, legends, vectors, zoom) and the download links, types a bad dp
 // and checks the API's message beside the field, and saves screenshots at 1280x800 and 390x844.
 //
 //   node tests/web/e2e.mjs --runout BUILD/runout --npm-dir BUILD/web-npm --flume scenarios/flume \
@@ -106,17 +107,121 @@ async function api(base, method, p, body) {
   return { status: res.status, json, text };
 }
 
+// The compare view opens on the decision metrics, first in the table as GET /compare orders them, with the
+// layouts ranked as the server ranks them (by the outlet's peak discharge, lowest first); "all metrics" shows
+// the rest.
+async function checkDecisionView(page, cmp, jobs) {
+  const flags = cmp.metrics.map((m) => m.decision);
+  const decisions = flags.filter(Boolean).length;
+  check(decisions >= 2, `the flume comparison has decision metrics (${decisions})`);
+  check(flags.slice(0, decisions).every(Boolean) && !flags.slice(decisions).some(Boolean), 'the decision metrics come first');
+  equal(cmp.metrics[0].metric, `monitors.section.${cmp.outlet}.peak_discharge_m3_s`, 'the first row is the outlet\'s peak discharge');
+  const rows = await page.$$eval('#compare-table tbody tr', (trs) => trs.map((tr) => ({ decision: tr.dataset.decision, hidden: tr.hidden })));
+  equal(JSON.stringify(rows.map((r) => r.decision === 'true')), JSON.stringify(flags), 'the page marks the API\'s decision rows');
+  equal(JSON.stringify(rows.map((r) => !r.hidden)), JSON.stringify(flags), 'the view opens on the decision metrics only');
+  // The ranking: every layout once, ascending by the ranking metric's value, as the table's first row gives it.
+  const r = cmp.ranking;
+  equal(r.metric, cmp.metrics[0].metric, 'layouts are ranked by the first decision metric');
+  equal(JSON.stringify(r.layouts.map((l) => l.job).sort()), JSON.stringify([...jobs].sort()), 'every layout is ranked');
+  // Without the dam the flow reaches the outlet within the run, with it not: the key tells them apart, so the
+  // order below is a real one.
+  check(new Set(r.layouts.map((l) => l.value)).size === r.layouts.length, `the layouts differ on the key: ${JSON.stringify(r.layouts)}`);
+  const valueOf = (job) => (job === cmp.baseline.job ? cmp.metrics[0].baseline : cmp.metrics[0].values[cmp.jobs.findIndex((j) => j.job === job)]);
+  r.layouts.forEach((l, k) => {
+    equal(l.value, valueOf(l.job), `ranked value of job ${l.job}`);
+    if (k > 0) check(r.layouts[k - 1].value <= l.value, `ranking ascending at ${k}`);
+    // Equal values share a rank (a key that cannot tell layouts apart must not seem to).
+    equal(l.rank, k > 0 && r.layouts[k - 1].value === l.value ? r.layouts[k - 1].rank : k + 1, `rank of job ${l.job}`);
+  });
+  const shown = await page.$$eval('#ranking li', (lis) => lis.map((li) => ({ job: Number(li.dataset.job), rank: Number(li.dataset.rank), text: li.textContent })));
+  equal(JSON.stringify(shown.map((x) => x.job)), JSON.stringify(r.layouts.map((l) => l.job)), 'the page lists the layouts in the server\'s order');
+  equal(JSON.stringify(shown.map((x) => x.rank)), JSON.stringify(r.layouts.map((l) => l.rank)), 'the page shows the server\'s ranks');
+  check(/peak discharge at the outlet/.test(await page.textContent('#ranking')), 'the page states the ranking key');
+  await page.check('#all-metrics');
+  const all = await page.$$eval('#compare-table tbody tr', (trs) => trs.filter((tr) => !tr.hidden).length);
+  equal(all, cmp.metrics.length, '"all metrics" shows every row');
+  await page.uncheck('#all-metrics');
+  log(`decision view: ${decisions} decision metrics first; ranking ${shown.map((x) => `#${x.job}`).join(' < ')}`);
+}
+
+// Each job's map: Leaflet, its first raster overlay (HTTP 200, image/png, one pixel per cell), a legend
+// equal to the served colour scale, the structures, zones and sections of map.json as named vector layers,
+// another raster picked from the layer list with its own legend, zoom; then every download link answers 200
+// with its media type.
+async function checkMaps(page, base, jobs, { dam, flume, sections }) {
+  for (const job of jobs) {
+    const fig = `#maps figure.map[data-job="${job}"]`;
+    const info = (await api(base, 'GET', `/jobs/${job}/map.json`)).json;
+    check(info.layers.length >= 4, `map.json of job ${job} lists the rasters (${info.layers.map((l) => l.name)})`);
+    equal(info.layers.slice(0, 4).map((l) => l.name).join(), 'max_depth,max_speed,max_pressure,intensity', 'the first layers');
+    check(await page.$(`${fig} .leaflet-container`), `job ${job}: a Leaflet map`);
+    const overlay = await page.$eval(`${fig} img.leaflet-image-layer.raster`, (img) => ({ src: img.src, w: img.naturalWidth, h: img.naturalHeight }));
+    equal(new URL(overlay.src).pathname, info.layers[0].image, `job ${job}: the first overlay is ${info.layers[0].name}`);
+    equal([overlay.w, overlay.h].join('x'), `${info.raster.nx}x${info.raster.ny}`, `job ${job}: the overlay has a pixel per cell`);
+    const res = await fetch(overlay.src);
+    equal(res.status, 200, `GET ${overlay.src}`);
+    equal(res.headers.get('content-type'), 'image/png', `${overlay.src} type`);
+    if (info.hillshade) check(await page.$(`${fig} img.leaflet-image-layer.hillshade`), `job ${job}: the hillshade under it`);
+    const legend = async () => page.$eval(`${fig} .legend`, (l) => ({ layer: l.dataset.layer, values: [...l.querySelectorAll('li')].map((li) => Number(li.dataset.value)), labels: [...l.querySelectorAll('li')].map((li) => li.textContent), colours: [...l.querySelectorAll('li')].map((li) => li.dataset.colour) }));
+    const expectLegend = (got, layer) => {
+      equal(got.layer, layer.name, `job ${job}: the legend's layer`);
+      equal(JSON.stringify(got.values), JSON.stringify(layer.scale.stops.map((x) => x.value)), `job ${job}: ${layer.name} legend values`);
+      equal(JSON.stringify(got.labels), JSON.stringify(layer.scale.stops.map((x) => x.label)), `job ${job}: ${layer.name} legend labels`);
+      equal(JSON.stringify(got.colours), JSON.stringify(layer.scale.stops.map((x) => x.colour)), `job ${job}: ${layer.name} legend colours`);
+    };
+    expectLegend(await legend(), info.layers[0]);
+    // The vector layers: what map.json lists, by name.
+    const vectors = await page.$$eval(`${fig} path[data-kind]`, (ps) => ps.map((p) => ({ kind: p.dataset.kind, name: p.dataset.name })));
+    const names = (kind) => vectors.filter((v) => v.kind === kind).map((v) => v.name).join();
+    equal(names('structure'), info.structures.map((x) => x.name).join(), `job ${job}: structures on the map`);
+    equal(names('zone'), (flume.protected_zones || []).map((z) => z.name).join(), `job ${job}: protected zones`);
+    equal(names('section'), sections.join(), `job ${job}: cross-sections`);
+    const labels = await page.$$eval(`${fig} .leaflet-tooltip.structure`, (ts) => ts.map((t) => t.textContent));
+    equal(labels.join(), info.structures.map((x) => x.name).join(), `job ${job}: structure labels`);
+    const zoneLabels = await page.$$eval(`${fig} .leaflet-tooltip.zone`, (ts) => ts.map((t) => t.textContent));
+    equal(zoneLabels.join(), info.protected_zones.map((x) => x.name).join(), `job ${job}: zone labels (tooltips: ${await page.$$eval(`${fig} .leaflet-tooltip`, (ts) => ts.map((t) => t.className + ':' + t.textContent).join('; '))})`);
+    // Another raster from the layer list: its picture and its legend.
+    const speed = info.layers.find((l) => l.name === 'max_speed');
+    await page.click(`${fig} .leaflet-control-layers-base label:has-text("${speed.title}")`);
+    await page.waitForFunction(([f, src]) => [...document.querySelectorAll(`${f} img.leaflet-image-layer.raster`)].some((i) => i.src.endsWith(src) && i.naturalWidth > 0), [fig, speed.image]);
+    expectLegend(await legend(), speed);
+    // Zoom in with the control.
+    const z0 = Number(await page.getAttribute(fig, 'data-zoom'));
+    await page.click(`${fig} .leaflet-control-zoom-in`);
+    await page.waitForFunction(([f, z]) => Number(document.querySelector(f).dataset.zoom) > z, [fig, z0]);
+    checks++;
+    await page.click(`${fig} .leaflet-control-zoom-out`);
+    await page.waitForFunction(([f, z]) => Number(document.querySelector(f).dataset.zoom) === z, [fig, z0]);
+    await page.click(`${fig} .leaflet-control-layers-base label:has-text("${info.layers[0].title}")`);
+    // Downloads: every raster, the hazard polygons, the series.
+    const links = await page.$$eval(`${fig} .downloads a[download]`, (as) => as.map((a) => ({ href: a.href, type: a.dataset.type, text: a.textContent })));
+    for (const l of info.layers) check(links.some((a) => a.text === `${l.name}.tif`), `job ${job}: a download of ${l.name}.tif`);
+    check(links.some((a) => a.text === 'hazard.gpkg') && links.some((a) => a.text === 'section_' + sections[0] + '.csv'), `job ${job}: hazard.gpkg and series downloads`);
+    for (const a of links) {
+      const r = await fetch(a.href);
+      equal(r.status, 200, `download ${a.text}`);
+      check((r.headers.get('content-type') || '').startsWith(a.type), `${a.text}: ${r.headers.get('content-type')} is ${a.type}`);
+      await r.arrayBuffer();
+    }
+    log(`map of job ${job}: ${info.layers.length} rasters, legend = scale, ${vectors.length} vectors, zoom, ${links.length} downloads`);
+  }
+  const withDam = (await api(base, 'GET', `/jobs/${jobs[0]}/map.json`)).json;
+  equal(withDam.structures.map((x) => x.name).join(), dam.name, 'the dam on its job\'s map');
+  equal((await api(base, 'GET', `/jobs/${jobs[1]}/map.json`)).json.structures.length, 0, 'no structure on the baseline\'s map');
+}
+
 async function main() {
   fs.mkdirSync(args.out, { recursive: true });
   if (args.docs) fs.mkdirSync(args.docs, { recursive: true });
   const base = await startServer();
   log('server at', base);
 
-  // The flume, short: in 1.5 s the flow reaches the first check dam and, without it, the first
-  // cross-section; at draft fidelity (dp 0.05 m) a run takes ~20-30 s on one thread.
+  // The flume, short: in 2.4 s the flow reaches the first check dam and, without it, the outlet (so the
+  // layouts rank apart on the outlet's peak discharge); at draft fidelity (dp 0.05 m) a run takes ~10-40 s on
+  // one thread.
   const flume = JSON.parse(fs.readFileSync(path.join(args.flume, 'flume.json'), 'utf8'));
   flume.name = 'flume-e2e';
-  flume.duration = 1.5;
+  flume.duration = 2.4;
   const dam = (flume.structures || []).find((s) => s.type === 'check_dam');
   check(dam, 'the flume has a check dam among its candidate structures');
   const sections = (flume.monitors || []).filter((m) => m.type === 'section').map((m) => m.name);
@@ -251,6 +356,7 @@ async function main() {
     });
   });
   log(`compare table: ${table.length} metrics equal the API's (${differing} differ)`);
+  await checkDecisionView(page, cmp.json, [baseline, withDam]);
 
   // Charts: a hydrograph per cross-section, force and pressure on the dam, the front position; maps.
   const charts = await page.$$eval('#charts figure.chart', (fs) => fs.map((f) => ({ id: f.dataset.chart, canvas: !!f.querySelector('canvas') })));
@@ -259,22 +365,8 @@ async function main() {
   check(ids.includes(`structure_load_${dam.name}:force`) && ids.includes(`structure_load_${dam.name}:pressure`), `force and pressure of ${dam.name}`);
   check(ids.includes('front'), 'front position chart');
   check(charts.every((c) => c.canvas), 'every chart is drawn');
-  const maps = await page.$$eval('#maps figure.map', (fs) => fs.map((f) => ({
-    job: f.dataset.job,
-    loaded: (f.querySelector('img')?.naturalWidth || 0) > 0,
-    structures: [...f.querySelectorAll('path[data-structure]')].map((p) => p.dataset.structure),
-    zones: f.querySelectorAll('path[data-zone]').length,
-    sections: f.querySelectorAll('path[data-section]').length,
-  })));
-  equal(maps.length, 2, 'two maps');
-  for (const m of maps) {
-    check(m.loaded, `map.png of job ${m.job} loaded`);
-    equal(m.zones, (flume.protected_zones || []).length, `protected zones on the map of job ${m.job}`);
-    equal(m.sections, sections.length, `cross-sections on the map of job ${m.job}`);
-  }
-  equal(JSON.stringify(maps.find((m) => m.job === String(withDam)).structures), JSON.stringify([dam.name]), 'the dam on its job\'s map');
-  equal(maps.find((m) => m.job === String(baseline)).structures.length, 0, 'no structure on the baseline\'s map');
-  log(`charts: ${ids.join(', ')}; maps drawn`);
+  log(`charts: ${ids.join(', ')}`);
+  await checkMaps(page, base, [withDam, baseline], { dam, flume, sections });
 
   const shots = [];
   async function shot(name, opts = {}) {
@@ -289,7 +381,7 @@ async function main() {
   await shot('web-compare-1280x800.png');
   await page.evaluate(() => document.getElementById('charts').scrollIntoView({ block: 'start' }));
   await shot('web-charts-1280x800.png');
-  await page.evaluate(() => document.getElementById('maps').scrollIntoView({ block: 'end' }));
+  await page.evaluate(() => document.getElementById('maps').scrollIntoView({ block: 'start' }));
   await shot('web-maps-1280x800.png');
 
   // A bad value: the API's message beside the field it names, and nothing submitted.
@@ -356,6 +448,9 @@ async function main() {
   await shot('web-phone-jobs-390x844.png');
   await page.evaluate(() => document.getElementById('charts').scrollIntoView({ block: 'start' }));
   await shot('web-phone-charts-390x844.png');
+  await page.evaluate(() => document.getElementById('maps').scrollIntoView({ block: 'start' }));
+  await page.waitForTimeout(300); // Leaflet follows the window's resize
+  await shot('web-phone-maps-390x844.png');
 
   check(problems.length === 0, `no errors in the page: ${problems.join('; ')}`);
   check(foreign.length === 0, `nothing fetched from elsewhere: ${foreign.join(', ')}`);

@@ -90,6 +90,9 @@ try {
     ['/web/style.css', 'text/css; charset=utf-8', 'style.css'],
     ['/web/vendor/uPlot.esm.js', 'text/javascript; charset=utf-8', 'vendor/uPlot.esm.js'],
     ['/web/vendor/uPlot.min.css', 'text/css; charset=utf-8', 'vendor/uPlot.min.css'],
+    ['/web/vendor/leaflet-src.esm.js', 'text/javascript; charset=utf-8', 'vendor/leaflet-src.esm.js'],
+    ['/web/vendor/leaflet.css', 'text/css; charset=utf-8', 'vendor/leaflet.css'],
+    ['/web/vendor/images/layers.png', 'image/png', 'vendor/images/layers.png'],
   ]) {
     const r = await request(a, 'GET', p);
     check(r.status === 200 && r.headers['content-type'] === type, `GET ${p}: ${r.status} ${r.headers['content-type']}`);

@@ -35,6 +35,9 @@ class DecisionMetrics {
   explicit DecisionMetrics(const std::vector<std::string>& metric_names);
 
   const std::string& outlet() const { return outlet_; }  // empty: no section among the names
+  // The metric layouts are ranked by, the first decision metric: the outlet's peak discharge (lowest first);
+  // empty without an outlet.
+  std::string ranking_metric() const;
   // Its rank when `metric` is a decision metric, nullopt otherwise.
   std::optional<DecisionRank> rank(const std::string& metric) const;
   bool is_decision(const std::string& metric) const { return rank(metric).has_value(); }
