@@ -338,7 +338,8 @@ std::string ranking_table(const std::vector<Layout>& layouts, const DecisionMetr
     << " in per cent (green where it improves on the baseline, red where it is worse); – where the layout has no "
        "such metric. Peak loads and retained volumes list the structures the layout builds. \"never\": the flow "
        "did not reach the zone. Hover a heading for the stored metric's name.</p>";
-  if (columns.empty()) return s.str() + "<p>No decision metric is stored for these runs.</p>";
+  if (columns.empty())  // still the layouts, by name: the page says what was compared
+    s << "<p class=\"note\">No decision metric is stored for these runs (no section, structure or terrain).</p>";
   s << "<div class=\"scroll\"><table id=\"ranking\" class=\"ranking\"><thead><tr><th rowspan=\"2\">#</th>"
        "<th rowspan=\"2\">layout</th>";
   for (size_t c = 0; c < columns.size();) {  // group headings spanning their columns
