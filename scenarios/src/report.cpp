@@ -2,7 +2,9 @@
 #include "runout/scenarios/report.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
@@ -553,8 +555,9 @@ std::string convergence(const RunStore& store, const std::vector<Layout>& layout
       std::string says;
       if (it->dp_within_5 && *it->dp_within_5 >= report_dp - 1e-12) says = "converged to 5 % at this dp";
       else if (it->dp_within_10 && *it->dp_within_10 >= report_dp - 1e-12) says = "within 10 % at this dp, not 5 %";
-      else if (it->dp_within_10) says = "needs dp ≤ " + fmt(*it->dp_within_10, "%g") + " m for 10 %";
-      else says = "not converged on this ladder";
+      else if (it->dp_within_10 && *it->dp_within_10 > finest * (1 + 1e-9))
+        says = "needs dp ≤ " + fmt(*it->dp_within_10, "%g") + " m for 10 %";
+      else says = "not converged on this ladder (only its finest rung is within 10 %)";
       s << "<td>" << fmt(it->finest) << "</td><td>"
         << dev << "</td><td>"
         << dp_text(it->dp_within_5) << "</td><td>" << dp_text(it->dp_within_10) << "</td><td>"
@@ -633,9 +636,9 @@ h3{font-size:16px;margin:22px 0 6px}code{font-size:12px;background:#f2f3f5;paddi
 nav a{margin-right:14px}.key,.note{color:#444;max-width:980px}.scroll{overflow-x:auto}
 table{border-collapse:collapse;font-variant-numeric:tabular-nums}th,td{padding:4px 6px;border-bottom:1px solid #e3e5e8;text-align:right;vertical-align:top}
 thead th{background:#f5f6f8;font-weight:600;font-size:12px;vertical-align:bottom}th.group{text-align:center;border-left:1px solid #fff;text-transform:uppercase;letter-spacing:.04em;color:#555}
-tbody th{text-align:left;white-space:nowrap}.ranking{font-size:13px}.ranking td small{font-size:11px;display:block;white-space:nowrap}.ranking td span{white-space:nowrap}.better{color:#1a7f37}.worse{color:#b3261e}.same{color:#666}
+tbody th{text-align:left;white-space:nowrap}.ranking{font-size:12.5px}.ranking th,.ranking td{padding:3px 4px}.ranking td small{font-size:11px;display:block;white-space:nowrap}.ranking td span{white-space:nowrap}.better{color:#1a7f37}.worse{color:#b3261e}.same{color:#666}
 tr.baseline{background:#fff8e0}.missing{color:#aaa;text-align:center}table.plain th{text-align:left}
-table.conv th:first-child{text-align:left}.charts{display:grid;grid-template-columns:repeat(auto-fill,minmax(560px,1fr));gap:12px}
+table.conv th:first-child,table.conv td:last-child,table.conv th:last-child{text-align:left}table.conv td{white-space:nowrap}table.conv td:last-child{white-space:normal}.charts{display:grid;grid-template-columns:repeat(auto-fill,minmax(560px,1fr));gap:12px}
 figure{margin:8px 0}svg.chart{width:100%;height:auto;font-size:11px;fill:#333}svg.chart .ct{font-size:13px;font-weight:600}
 svg.chart .plot{fill:#fff;stroke:#888}svg.chart .grid{stroke:#e6e6e6}svg.chart polyline{fill:none;stroke-width:1.6}
 .layouts{display:grid;grid-template-columns:repeat(auto-fill,minmax(560px,1fr));gap:8px 24px}
