@@ -26,6 +26,7 @@ struct Command {
 Action add_run(CLI::App& app);
 Action add_sweep(CLI::App& app);
 Action add_compare(CLI::App& app);
+Action add_report(CLI::App& app);
 Action add_serve(CLI::App& app);
 Action add_tradeoff(CLI::App& app);
 Action add_calibrate(CLI::App& app);
@@ -33,7 +34,8 @@ Action add_schema(CLI::App& app);
 
 // In the order `runout --help` lists them.
 inline const Command kCommands[] = {{"run", add_run},           {"sweep", add_sweep},
-                                    {"compare", add_compare},   {"serve", add_serve},
+                                    {"compare", add_compare},   {"report", add_report},
+                                    {"serve", add_serve},
                                     {"tradeoff", add_tradeoff}, {"calibrate", add_calibrate},
                                     {"schema", add_schema}};
 

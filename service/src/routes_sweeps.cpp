@@ -2,6 +2,8 @@
 // docs/service.md).
 #include "server_impl.hpp"
 
+#include "runout/scenarios/report.hpp"
+
 namespace runout::service {
 
 namespace {
@@ -119,6 +121,32 @@ void Server::Impl::routes_sweeps() {
         out["status"] == "done" && !jobs.empty() ? json(kPrefix + "/compare?sweep=" + m[1].str()) : json(nullptr);
     send_json(res, 200, out);
   });
+  // The sweep's study report (scenarios/report.hpp): one self-contained HTML page of its done jobs' runs, the
+  // baseline its first variant or ?baseline=<variant>.
+  add(R"(/sweeps/(\d{1,18})/report\.html)", "GET",
+      [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+        only_params(req, {"baseline"});
+        const int64_t id = std::stoll(m[1].str());
+        const auto row = queue->get_sweep(id);
+        if (!row) throw ApiError(404, "id", "no sweep with id " + m[1].str());
+        StudyReportInput in{row->name, {}, 0};
+        std::string variants;
+        const std::string baseline = req.has_param("baseline") ? req.get_param_value("baseline") : std::string();
+        for (const auto& j : queue->list(std::nullopt, id, 100000, 0)) {
+          variants += (variants.empty() ? "" : ", ") + j.variant;
+          if (j.status != "done" || !j.run_id) continue;
+          in.runs.push_back({*j.run_id, j.variant, out_dir_of(j)});
+          if (baseline.empty() ? in.baseline_id == 0 : j.variant == baseline) in.baseline_id = *j.run_id;
+        }
+        if (in.runs.empty())
+          throw ApiError(409, "status", "sweep " + m[1].str() + " has no done job yet; its report exists once one is done");
+        if (in.baseline_id == 0)
+          throw ApiError(baseline.empty() ? 409 : 400, "baseline",
+                         "'" + baseline + "' is not a done variant of sweep " + m[1].str() + " (its variants: " +
+                             variants + ")");
+        res.status = 200;
+        res.set_content(study_report_html(*store, in), "text/html; charset=utf-8");
+      });
 }
 
 }  // namespace runout::service

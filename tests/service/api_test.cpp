@@ -342,6 +342,33 @@ TEST_F(Api, SweepsAreListedAndFollowedToTheirComparison) {
   EXPECT_EQ(cmp.body.at("jobs")[0].at("job"), detail.at("variants")[1].at("job"));
   EXPECT_EQ(get("/compare?sweep=99").status, 404);
   EXPECT_EQ(get("/compare?sweep=1&jobs=1").status, 400);
+
+  // The sweep's study report: one HTML page, its first variant the baseline unless another is named.
+  const std::string report = "/sweeps/" + std::to_string(id) + "/report.html";
+  const Reply page = get(report);
+  ASSERT_EQ(page.status, 200) << page.text.substr(0, 300);
+  EXPECT_EQ(page.headers.find("Content-Type")->second, "text/html; charset=utf-8");
+  EXPECT_EQ(page.text.rfind("<!DOCTYPE html>", 0), 0u);
+  EXPECT_NE(page.text.find("<h1>Study report: widths</h1>"), std::string::npos);
+  EXPECT_NE(page.text.find("<a href=\"#layout-A\">A</a> <small>baseline</small>"), std::string::npos);
+  const Reply other = get(report + "?baseline=B");
+  ASSERT_EQ(other.status, 200);
+  EXPECT_NE(other.text.find("<a href=\"#layout-B\">B</a> <small>baseline</small>"), std::string::npos);
+  expect_problem(get(report + "?baseline=C9"), 400, "malformed-request", "/api/v1" + report, "baseline");
+  expect_problem(get(report + "?colour=red"), 400, "malformed-request", "/api/v1" + report, "colour");
+  expect_problem(get("/sweeps/999/report.html"), 404, "not-found", "/api/v1/sweeps/999/report.html", "id");
+}
+
+// A sweep whose jobs have not run has no report yet: 409.
+TEST_F(Api, ASweepsReportWaitsForADoneJob) {
+  start({"--workers", "0"});
+  const Reply scene = post("/scenes", tiny_scene("base"));
+  ASSERT_EQ(scene.status, 201) << scene.text;
+  const Reply sweep = post("/sweeps", {{"name", "queued"}, {"scene_id", scene.body.at("id")},
+                                       {"variants", json::array({{{"name", "A"}}})}});
+  ASSERT_EQ(sweep.status, 201) << sweep.text;
+  const std::string report = "/sweeps/" + std::to_string(sweep.body.at("id").get<int64_t>()) + "/report.html";
+  expect_problem(get(report), 409, "not-ready", "/api/v1" + report, "status");
 }
 
 }  // namespace

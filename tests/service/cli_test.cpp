@@ -203,7 +203,7 @@ TEST_F(Cli, HelpAndVersionExit0) {
   ASSERT_EQ(run("--help"), 0);
   EXPECT_NE(output().find("compare"), std::string::npos) << output();
   // Every subcommand's help ends with an example that uses a shipped file or none.
-  for (const char* sub : {"run", "sweep", "compare", "serve", "tradeoff", "calibrate", "schema"}) {
+  for (const char* sub : {"run", "sweep", "compare", "report", "serve", "tradeoff", "calibrate", "schema"}) {
     ASSERT_EQ(run(std::string(sub) + " --help"), 0) << sub;
     const std::string help = output();
     const size_t example = help.find("Example");
@@ -215,6 +215,32 @@ TEST_F(Cli, HelpAndVersionExit0) {
       EXPECT_TRUE(fs::exists(fs::path(RUNOUT_SOURCE_DIR) / name)) << sub << ": " << name;
     }
   }
+}
+
+// `runout report` writes the sweep's HTML report; a missing store, sweep or baseline is a usage error (exit 2)
+// naming the option, and nothing is written.
+TEST_F(Cli, ReportWritesTheSweepsPageAndRefusesWhatItCannotFind) {
+  write("base.json", good_scene().dump());
+  const fs::path sweep = write("sweep.json", R"({"name": "cli-sweep", "base": "base.json",
+                                                 "variants": [{"name": "A"}, {"name": "B", "structures": []}]})");
+  const fs::path db = dir_ / "runs.db", runs = dir_ / "runs", out = dir_ / "out" / "report.html";
+  ASSERT_EQ(run("sweep " + q(sweep) + " --db " + q(db) + " --out " + q(runs) + " --threads 1"), 0) << output();
+  ASSERT_EQ(run("report --sweep cli-sweep --db " + q(db) + " --runs " + q(runs) + " --out " + q(out)), 0) << output();
+  const std::string html = text(out);
+  EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u);
+  EXPECT_NE(html.find("<h1>Study report: cli-sweep</h1>"), std::string::npos);
+  EXPECT_NE(html.find("<a href=\"#layout-A\">A</a> <small>baseline</small>"), std::string::npos);
+  fs::remove(out);
+  EXPECT_EQ(run("report --sweep nope --db " + q(db) + " --out " + q(out)), 2);
+  EXPECT_NE(output().find("--sweep: no completed run of sweep 'nope'"), std::string::npos) << output();
+  EXPECT_EQ(run("report --sweep cli-sweep --baseline C0 --db " + q(db) + " --out " + q(out)), 2);
+  EXPECT_NE(output().find("(accepted: A, B)"), std::string::npos) << output();
+  EXPECT_EQ(run("report --sweep cli-sweep --db " + q(dir_ / "none.db") + " --out " + q(out)), 2);
+  EXPECT_NE(output().find("--db: no run store at"), std::string::npos) << output();
+  EXPECT_FALSE(fs::exists(dir_ / "none.db"));
+  EXPECT_EQ(run("report --db " + q(db)), 2);
+  EXPECT_NE(output().find("--sweep is required"), std::string::npos) << output();
+  EXPECT_FALSE(fs::exists(out));
 }
 
 TEST_F(Cli, RunRefusesFidelityAndDpTogether) {

@@ -358,6 +358,7 @@ TEST_F(Service, OpenApiDocumentDescribesEveryRoute) {
       {"/jobs/{id}", {"get", "delete"}},
       {"/sweeps", {"get", "post"}},
       {"/sweeps/{id}", {"get"}},
+      {"/sweeps/{id}/report.html", {"get"}},
       {"/jobs/{id}/vectors/hazard.gpkg", {"get"}},
       {"/estimate", {"post"}},
       {"/jobs/{id}/metrics", {"get"}},
@@ -378,8 +379,8 @@ TEST_F(Service, OpenApiDocumentDescribesEveryRoute) {
   }
   // Every route answers: an unknown id is 404 (not 405), a wrong method 405 with Allow.
   for (const std::string p : {"/scenes/9", "/jobs/9", "/jobs/9/metrics", "/jobs/9/series/run.csv", "/jobs/9/rasters/max_depth.tif",
-                              "/jobs/9/map.png", "/jobs/9/map.json", "/sweeps/9", "/jobs/9/vectors/hazard.gpkg",
-                              "/jobs/9/rasters/max_depth.png", "/jobs/9/hillshade.png"})
+                              "/jobs/9/map.png", "/jobs/9/map.json", "/sweeps/9", "/sweeps/9/report.html",
+                              "/jobs/9/vectors/hazard.gpkg", "/jobs/9/rasters/max_depth.png", "/jobs/9/hillshade.png"})
     EXPECT_EQ(get(p).status, 404) << p;
   const Reply wrong = request("PUT", "/api/v1/sweeps", "{}");
   EXPECT_EQ(wrong.status, 405);
