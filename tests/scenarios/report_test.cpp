@@ -25,7 +25,9 @@ namespace {
 const std::string kQm = "monitors.section.Outlet.peak_discharge_m3_s";
 
 struct Fixture {
-  fs::path dir = fs::temp_directory_path() / "runout-report-test";
+  // One folder per test: ctest -j runs a file's tests as separate processes at once.
+  fs::path dir = fs::temp_directory_path() /
+                 ("runout-report-" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
   std::unique_ptr<RunStore> store;
   SweepResult result;
   Fixture() {
