@@ -1,9 +1,23 @@
-// Routes: a job's results: metrics, series, rasters (GeoTIFF and coloured PNG), map.png, hillshade.png and map.json (server_impl.hpp, docs/service.md).
-#include "runout/scenarios/raster_map.hpp"
-#include "runout/scenarios/scene_map.hpp"
+// Routes: a job's results: metrics, series, raster (GeoTIFF) and vector downloads (server_impl.hpp, docs/service.md);
+// the web map's pictures and geometry are in routes_maps.cpp.
 #include "server_impl.hpp"
 
 namespace runout::service {
+
+// A file of the job's rasters/ folder; `download`: sent as an attachment named after the job.
+void Server::Impl::send_run_file(const std::string& id, const std::string& file, httplib::Response& res,
+                                 const char* type, bool download) {
+  const Job j = require_job(id);
+  (void)run_of(j);
+  const fs::path p = out_dir_of(j) / "rasters" / file;
+  if (!fs::is_regular_file(p))
+    throw ApiError(404, "name", "job " + id + " has no file '" + file +
+                                    "' (terrain runs have the rasters max_depth, max_speed, deposit_depth, max_hv, "
+                                    "arrival_time, max_pressure, intensity, the vectors hazard.gpkg and map.png)");
+  res.status = 200;
+  if (download) res.set_header("Content-Disposition", attachment("job-" + id + "-" + file));
+  res.set_content(read_file(p), type);
+}
 
 void Server::Impl::routes_results() {
   // Results.
@@ -41,136 +55,19 @@ void Server::Impl::routes_results() {
         res.set_header("Content-Disposition", attachment("job-" + m[1].str() + "-" + name + ".csv"));
         res.set_content(*csv, "text/csv; charset=utf-8; header=present");
       });
-  // A file of the run's rasters/ folder; `download`: sent as an attachment named after the job.
-  auto raster = [this](const std::string& id, const std::string& file, httplib::Response& res, const char* type,
-                       bool download) {
-    const Job j = require_job(id);
-    (void)run_of(j);
-    const fs::path p = out_dir_of(j) / "rasters" / file;
-    if (!fs::is_regular_file(p))
-      throw ApiError(404, "name", "job " + id + " has no file '" + file +
-                                      "' (terrain runs have the rasters max_depth, max_speed, deposit_depth, max_hv, "
-                                      "arrival_time, max_pressure, intensity, the vectors hazard.gpkg and map.png)");
-    res.status = 200;
-    if (download) res.set_header("Content-Disposition", attachment("job-" + id + "-" + file));
-    res.set_content(read_file(p), type);
-  };
   add(R"(/jobs/(\d{1,18})/rasters/(.+)\.tif)", "GET",
-      [this, raster](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+      [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
         only_params(req, {});
         if (!safe_file_name(m[2].str()))
           throw ApiError(400, "name", "raster name must be 1 to 64 of A-Z a-z 0-9 _ . - without '..'");
-        raster(m[1].str(), m[2].str() + ".tif", res, "image/tiff; application=geotiff", true);
-      });
-  // A raster of the job coloured for the web map (raster_map.hpp): RGBA, one pixel per cell, transparent where
-  // there is nothing to show; map.json's `layers` give each one's colour scale.
-  add(R"(/jobs/(\d{1,18})/rasters/(.+)\.png)", "GET",
-      [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
-        only_params(req, {});
-        const std::string name = m[2].str();
-        const auto& layers = map_layers();
-        if (std::find(layers.begin(), layers.end(), name) == layers.end()) {
-          std::string list;
-          for (const auto& n : layers) list += (list.empty() ? "" : ", ") + n;
-          throw ApiError(404, "name", "no raster picture '" + name + "' (accepted: " + list + ")");
-        }
-        const Job j = require_job(m[1].str());
-        (void)run_of(j);
-        std::optional<RasterPicture> picture;
-        try {
-          picture = render_run_raster(out_dir_of(j), name);
-        } catch (const std::exception& e) {
-          throw ApiError(500, "name", "cannot render job " + m[1].str() + "'s " + name + ".tif: " + e.what());
-        }
-        if (!picture)
-          throw ApiError(404, "name", "job " + m[1].str() + " has no raster '" + name + "' (rasters exist for terrain scenes)");
-        res.status = 200;
-        res.set_content(picture->png, "image/png");
-      });
-  // The terrain in grey (written by the run with its rasters), the web map's bottom layer.
-  add(R"(/jobs/(\d{1,18})/hillshade\.png)", "GET",
-      [raster](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
-        only_params(req, {});
-        raster(m[1].str(), "hillshade.png", res, "image/png", false);
-      });
-  add(R"(/jobs/(\d{1,18})/map\.png)", "GET",
-      [this, raster](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
-        only_params(req, {});
-        raster(m[1].str(), "max_depth.png", res, "image/png", false);
+        send_run_file(m[1].str(), m[2].str() + ".tif", res, "image/tiff; application=geotiff", true);
       });
   // The inundated area and the intensity classes as polygons (the run's rasters/hazard.gpkg).
   add(R"(/jobs/(\d{1,18})/vectors/hazard\.gpkg)", "GET",
-      [raster](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+      [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
         only_params(req, {});
-        raster(m[1].str(), "hazard.gpkg", res, "application/geopackage+sqlite3", true);
+        send_run_file(m[1].str(), "hazard.gpkg", res, "application/geopackage+sqlite3", true);
       });
-  // Where map.png lies on the ground, and what to draw over it: the rasters' extent and CRS, and the map geometry
-  // of the job's structures, protected zones, release and cross-sections (working CRS, metres), both from
-  // scenarios (scene_map.hpp).
-  add(R"(/jobs/(\d{1,18})/map\.json)", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
-    only_params(req, {});
-    const Job j = require_job(m[1].str());
-    const int64_t run = run_of(j);
-    std::optional<MapExtent> extent;
-    try {
-      extent = run_map_extent(out_dir_of(j));
-    } catch (const std::exception& e) {
-      throw ApiError(500, "id", "cannot read the extent of job " + m[1].str() + "'s max_depth.tif: " + e.what());
-    }
-    if (!extent) throw ApiError(404, "id", "job " + m[1].str() + " has no map (maps exist for terrain scenes)");
-    const SceneMap map = scene_map(j.scene_json, opt.scene_dir);
-    auto coordinates = [](const MapFeature& f) {
-      json c = json::array();
-      for (const auto& p : f.points) c.push_back({p[0], p[1]});
-      return c;
-    };
-    auto geometry = [&](const MapFeature& f) {
-      return f.polygon ? json{{"type", "Polygon"}, {"coordinates", json::array({coordinates(f)})}}
-                       : json{{"type", "LineString"}, {"coordinates", coordinates(f)}};
-    };
-    json structures = json::array(), zones = json::array(), sections = json::array();
-    for (const auto& st : map.structures)
-      structures.push_back({{"name", st.name}, {"type", st.type}, {"geometry", geometry(st)}});
-    for (const auto& z : map.protected_zones) zones.push_back({{"name", z.name}, {"geometry", geometry(z)}});
-    for (const auto& sec : map.sections)
-      sections.push_back({{"name", sec.name}, {"series", "section_" + sec.name}, {"geometry", geometry(sec)}});
-    json release = nullptr;
-    if (map.release) release = {{"geometry", geometry(*map.release)}};
-    const MapExtent& g = *extent;
-    const std::string self = kPrefix + "/jobs/" + m[1].str();
-    json layers = json::array();
-    try {
-      for (const auto& sc : run_raster_scales(out_dir_of(j))) {
-        json stops = json::array();
-        for (const auto& st : sc.stops) stops.push_back({{"value", st.value}, {"colour", st.colour}, {"label", st.label}});
-        layers.push_back({{"name", sc.layer},
-                          {"title", sc.title},
-                          {"unit", sc.unit},
-                          {"image", self + "/rasters/" + sc.layer + ".png"},
-                          {"download", self + "/rasters/" + sc.layer + ".tif"},
-                          {"scale",
-                           {{"classes", sc.classes}, {"min", sc.min}, {"max", sc.max},
-                            {"zero_transparent", sc.zero_transparent}, {"stops", stops}}}});
-      }
-    } catch (const std::exception& e) {
-      throw ApiError(500, "id", "cannot read the rasters of job " + m[1].str() + ": " + e.what());
-    }
-    const bool shaded = fs::is_regular_file(run_hillshade(out_dir_of(j)));
-    send_json(res, 200,
-              {{"job", j.id},
-               {"run_id", run},
-               {"image", self + "/map.png"},
-               {"hillshade", shaded ? json(self + "/hillshade.png") : json(nullptr)},
-               {"layers", layers},
-               {"crs", g.crs},
-               {"raster",
-                {{"nx", g.nx}, {"ny", g.ny}, {"dx", g.dx}, {"dy", g.dy},
-                 {"west", g.west}, {"north", g.north}, {"east", g.east}, {"south", g.south}}},
-               {"structures", structures},
-               {"protected_zones", zones},
-               {"release", release},
-               {"sections", sections}});
-  });
 }
 
 }  // namespace runout::service

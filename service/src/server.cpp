@@ -19,6 +19,7 @@ void Server::Impl::setup_routes() {
   routes_sweeps();
   routes_estimate();
   routes_results();
+  routes_maps();
   routes_compare();
 }
 

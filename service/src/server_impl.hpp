@@ -443,6 +443,9 @@ struct Server::Impl {
   void routes_sweeps();
   void routes_estimate();
   void routes_results();
+  void routes_maps();
+  void send_run_file(const std::string& id, const std::string& file, httplib::Response& res, const char* type,
+                     bool download);
   void routes_compare();
   void serve_web(const httplib::Request& req, httplib::Response& res) const;
   void dispatch(const httplib::Request& req, httplib::Response& res);
