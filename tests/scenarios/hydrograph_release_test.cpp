@@ -155,3 +155,28 @@ TEST(HydrographRelease, BadHydrographsAreRefusedNamingTheField) {
   both["release"]["depth"] = 1.0;
   EXPECT_NE(refusal(both).find("release"), std::string::npos);
 }
+
+TEST(HydrographRelease, TheShippedCatchmentSurgeBuildsAtDraft) {
+  // scenarios/catchment/jacksboro_hydrograph.json at draft (dp 4 m): the 60 m line makes 15 lanes, one layer of
+  // 4 m; the flow enters eastwards (the valley drains east-north-east, the head slope falls east); the floors lie
+  // on the 23 degree head slope (the ground under the block release runs 779-821 m); the surge's peak is
+  // 2 V / T = 800 m3/s over the 240 m2 opening.
+  const fs::path dir = kSource / "scenarios/catchment";
+  std::ifstream in(dir / "jacksboro_hydrograph.json");
+  json scene = json::parse(in);
+  scene["dp"] = 4.0;
+  scene["terrain"]["dem"] = (dir / scene["terrain"]["dem"].get<std::string>()).string();  // the copy is elsewhere
+  TempDir tmp;
+  const Scene s = tmp.load(scene);
+  const auto& inlet = std::get<SceneSetup<3>>(s.setup).inlets.at(0);
+  EXPECT_EQ(inlet.lanes(), 15u);
+  EXPECT_EQ(inlet.layers_in_depth(4.0), 1);
+  EXPECT_GT(inlet.normal[0], 0.99);
+  for (size_t k = 0; k < inlet.lanes(); ++k) {
+    EXPECT_GT(inlet.floor[k], 770.0) << k;
+    EXPECT_LT(inlet.floor[k], 830.0) << k;
+    EXPECT_LT(inlet.slope[k], 0.0) << k;  // falling along the flow
+  }
+  EXPECT_NEAR(inlet.speed_at(0) * inlet.opening_area(4.0), 800.0, 1e-9);
+  EXPECT_NEAR(inlet.speed_at(60.0), 0.0, 1e-12);
+}
