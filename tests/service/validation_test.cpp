@@ -29,7 +29,43 @@ std::string with_raw(const json& j, const std::string& key_value, const std::str
   return text;
 }
 
-class Validation : public ServiceTest {};
+class Validation : public ServiceTest {
+ protected:
+  // The reply to one malformed request: its status, an RFC 9457 problem document naming the field
+  // (docs/service.md, "Errors"), Allow on a 405, the token never echoed.
+  static void expect_problem(const Case& c, const Reply& r) {
+    EXPECT_EQ(r.status, c.status) << c.name << ": " << r.text.substr(0, 400);
+    ASSERT_TRUE(r.body.is_object() && r.body.contains("errors")) << c.name << ": " << r.text.substr(0, 400);
+    EXPECT_EQ(media_type(r.headers), "application/problem+json") << c.name;
+    EXPECT_EQ(r.body.at("status"), r.status);
+    if (c.path.find('%') == std::string::npos)  // the instance is the decoded path
+      EXPECT_EQ(r.body.at("instance"), c.path.substr(0, c.path.find('?'))) << c.name;
+    EXPECT_EQ(r.body.at("type").get<std::string>().rfind("https://runout.invalid/problems/", 0), 0u) << c.name;
+    EXPECT_FALSE(r.body.at("title").get<std::string>().empty()) << c.name;
+    const json e = first_error(r.body);
+    const std::string field = e.at("field"), message = e.at("message");
+    EXPECT_NE(r.body.at("detail").get<std::string>().find(message), std::string::npos) << c.name;
+    EXPECT_FALSE(field.empty()) << c.name;
+    EXPECT_FALSE(message.empty()) << c.name;
+    if (!c.field.empty()) {
+      EXPECT_EQ(field, c.field) << c.name << ": " << message;
+    }
+    if (!c.message_contains.empty()) {
+      EXPECT_NE(message.find(c.message_contains), std::string::npos) << c.name << ": " << message;
+    }
+    if (std::getenv("RUNOUT_TEST_VERBOSE"))
+      std::cerr << "[validation] " << c.name << ": " << r.status << " " << field << ": " << message.substr(0, 160) << "\n";
+    if (r.status == 405) {
+      bool allow = false;
+      for (const auto& [k, v] : r.headers) allow = allow || k == "Allow";
+      EXPECT_TRUE(allow) << c.name;
+    }
+    if (r.status == 401) {
+      // The token is never echoed.
+      EXPECT_EQ(r.text.find(kToken), std::string::npos);
+    }
+  }
+};
 
 TEST_F(Validation, MalformedRequestsGetTheRight4xxAndLeaveTheStoreUnchanged) {
   std::ofstream(dir_ / "token") << kToken << "\n";
@@ -176,37 +212,7 @@ TEST_F(Validation, MalformedRequestsGetTheRight4xxAndLeaveTheStoreUnchanged) {
     if (c.auth)
       for (const auto& h : auth) c.headers.insert(h);
     const Reply r = request(c.method, c.path, c.body, c.headers, c.content_type);
-    EXPECT_EQ(r.status, c.status) << c.name << ": " << r.text.substr(0, 400);
-    // An RFC 9457 problem document naming the field (docs/service.md, "Errors").
-    ASSERT_TRUE(r.body.is_object() && r.body.contains("errors")) << c.name << ": " << r.text.substr(0, 400);
-    EXPECT_EQ(media_type(r.headers), "application/problem+json") << c.name;
-    EXPECT_EQ(r.body.at("status"), r.status);
-    if (c.path.find('%') == std::string::npos)  // the instance is the decoded path
-      EXPECT_EQ(r.body.at("instance"), c.path.substr(0, c.path.find('?'))) << c.name;
-    EXPECT_EQ(r.body.at("type").get<std::string>().rfind("https://runout.invalid/problems/", 0), 0u) << c.name;
-    EXPECT_FALSE(r.body.at("title").get<std::string>().empty()) << c.name;
-    const json e = first_error(r.body);
-    const std::string field = e.at("field"), message = e.at("message");
-    EXPECT_NE(r.body.at("detail").get<std::string>().find(message), std::string::npos) << c.name;
-    EXPECT_FALSE(field.empty()) << c.name;
-    EXPECT_FALSE(message.empty()) << c.name;
-    if (!c.field.empty()) {
-      EXPECT_EQ(field, c.field) << c.name << ": " << message;
-    }
-    if (!c.message_contains.empty()) {
-      EXPECT_NE(message.find(c.message_contains), std::string::npos) << c.name << ": " << message;
-    }
-    if (std::getenv("RUNOUT_TEST_VERBOSE"))
-      std::cerr << "[validation] " << c.name << ": " << r.status << " " << field << ": " << message.substr(0, 160) << "\n";
-    if (r.status == 405) {
-      bool allow = false;
-      for (const auto& [k, v] : r.headers) allow = allow || k == "Allow";
-      EXPECT_TRUE(allow) << c.name;
-    }
-    if (r.status == 401) {
-      // The token is never echoed.
-      EXPECT_EQ(r.text.find(kToken), std::string::npos);
-    }
+    expect_problem(c, r);
   }
 
   std::cerr << "[validation] " << cases.size() << " malformed requests checked\n";
