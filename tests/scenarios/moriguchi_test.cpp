@@ -22,8 +22,9 @@
 //    friction and the momentum carried over the wall only taking away and the mass's final momentum downslope
 //    (>= 0). 5 % allowed for the time quadrature of 0.005 s samples;
 //  * once the retained sand is at rest (over the last 0.5 s what arrives at the upstream section and what leaves
-//    over the wall are each under the 5 % below of the retained mass) the wall holds it against the slope: its late force lies between M g (sin(theta) - sin(phi) cos(theta))
-//    (full basal friction) and M g sin(theta) (none), M the retained mass. 5 % allowed: the hydrostatic tank's
+//    over the wall are each under the 5 % below of the retained mass) the wall holds it against the slope: its
+//    late force lies between M g (sin(theta) - sin(phi) cos(theta)) (full basal friction) and M g sin(theta)
+//    (none), M the retained mass. 5 % allowed: the hydrostatic tank's
 //    wall-layer pressures are within 2.04 % of rho g h (docs/validation.md), doubled for a deposit that may
 //    dilate 10 % under the density floor. At 65 deg the sand must be at rest by 2 s: the Coulomb block's time to
 //    the wall is 0.84 s from the box's back;
