@@ -39,10 +39,13 @@ class BedWallSource final : public WallSource<3> {
   uint64_t total() const override { return first_.back(); }
   Vec<3> lowest() const override { return lowest_; }
 
-  void lay(int64_t t, std::vector<Vec<3>>& positions, std::vector<uint32_t>& tags) const override {
+  void lay(int64_t t, std::vector<Vec<3>>& positions, std::vector<Vec<3>>& normals,
+           std::vector<uint32_t>& tags) const override {
     for_columns(t, [&](int i, int j, size_t c) {
+      const Vec<3> n = bed_normal(i, j);
       for (int q = 0; q < m_->bed_layers[c]; ++q) {
         positions.push_back(position(i, j, c, q));
+        normals.push_back(n);
         tags.push_back(1);
       }
     });
@@ -59,6 +62,22 @@ class BedWallSource final : public WallSource<3> {
     const Grid& bed = m_->bed;
     const double b = bed.values[c];
     return Vec<3>(bed.cx(i) - m_->origin_x, bed.cy(j) - m_->origin_y, b - (q + 0.5) * m_->dp);
+  }
+
+  // The bed's upward unit normal at column (i, j): central differences of the bed grid (one-sided at its edge).
+  Vec<3> bed_normal(int i, int j) const {
+    const Grid& bed = m_->bed;
+    auto at = [&](int ii, int jj) { return bed.values[static_cast<size_t>(jj) * bed.nx + ii]; };
+    // A neighbour off the grid or off the corridor (NaN) is replaced by the column itself.
+    auto on_bed = [&](int ii, int jj, int fallback_i, int fallback_j, bool along_x) {
+      const bool inside = along_x ? (ii >= 0 && ii < bed.nx) : (jj >= 0 && jj < bed.ny);
+      return inside && std::isfinite(at(ii, jj)) ? (along_x ? ii : jj) : (along_x ? fallback_i : fallback_j);
+    };
+    const int i0 = on_bed(i - 1, j, i, j, true), i1 = on_bed(i + 1, j, i, j, true);
+    const int j0 = on_bed(i, j - 1, i, j, false), j1 = on_bed(i, j + 1, i, j, false);
+    const double dbdx = i1 > i0 ? (at(i1, j) - at(i0, j)) / (bed.cx(i1) - bed.cx(i0)) : 0.0;
+    const double dbdy = j1 > j0 ? (at(i, j1) - at(i, j0)) / (bed.cy(j1) - bed.cy(j0)) : 0.0;
+    return Vec<3>(-dbdx, -dbdy, 1.0).normalized();
   }
 
   template <class F>

@@ -64,7 +64,10 @@ struct Reference {
 
 // Plain loops over all pairs, with the minimum image along periodic axes.
 template <int D, class Kernel>
-Reference<D> reference(const SceneSetup<D>& s, const Kernel& kernel, real max_viscosity) {
+// `normals`: the wall normal of each boundary particle by id, as the solver has it (its estimate is
+// tests/engine/wall_normals_test.cpp's concern; here only the pressure extrapolated along it is checked).
+Reference<D> reference(const SceneSetup<D>& s, const Kernel& kernel, real max_viscosity,
+                       const std::unordered_map<uint32_t, Vec<D>>& normals) {
   const SolverConfig& c = s.config;
   const auto& F = s.fluid;
   auto B = s.boundary;  // extrapolated boundary pressure rewrites the boundary density
@@ -110,7 +113,9 @@ Reference<D> reference(const SceneSetup<D>& s, const Kernel& kernel, real max_vi
       near = true;
       const real w = kernel.W(dx.norm());
       sw += w;
-      spw += (p[j] + F.rho[j] * g.dot(dx)) * w;
+      const Vec<D>& n = normals.at(B.id[b]);
+      const real hydro = n.squaredNorm() > 0 ? g.dot(n) * n.dot(dx) : g.dot(dx);
+      spw += (p[j] + F.rho[j] * hydro) * w;
     }
     out.boundary_near_fluid[B.id[b]] = near;
     if (c.boundary_pressure == BoundaryPressure::extrapolated) {
@@ -309,8 +314,14 @@ void compare(const Case& k, unsigned seed) {
   const SceneSetup<D> setup = random_scene<D>(k, seed);
   Solver<D> solver(setup);
   solver.evaluate_rates();
+  std::unordered_map<uint32_t, Vec<D>> normals;
+  for (size_t b = 0; b < solver.boundary().size(); ++b) {
+    Vec<D> n;
+    for (int d = 0; d < D; ++d) n[d] = solver.boundary_normal()[d][b];
+    normals[solver.boundary().id[b]] = n;
+  }
   const Reference<D> ref = with_kernel<D>(setup.config.kernel, setup.config.smoothing_length,
-                                          [&](auto kernel) { return reference<D>(setup, kernel, solver.max_viscosity()); });
+                                          [&](auto kernel) { return reference<D>(setup, kernel, solver.max_viscosity(), normals); });
   const auto& f = solver.fluid();
   ASSERT_EQ(f.size(), setup.fluid.size());
   // Scale: the largest reference value of each quantity, so a near-zero entry does not inflate the error.

@@ -26,12 +26,13 @@ class PlaneSource final : public WallSource<3> {
     g.ny = kRows / kTile;
     return g;
   }
-  void lay(int64_t t, std::vector<Vec<3>>& pos, std::vector<uint32_t>& tags) const override {
+  void lay(int64_t t, std::vector<Vec<3>>& pos, std::vector<Vec<3>>& normals, std::vector<uint32_t>& tags) const override {
     const int64_t ix = t % (kColumns / kTile), iy = t / (kColumns / kTile);
     for (int64_t j = iy * kTile; j < (iy + 1) * kTile; ++j)
       for (int64_t i = ix * kTile; i < (ix + 1) * kTile; ++i)
         for (int q = 0; q < kLayers; ++q) {
           pos.push_back(Vec<3>((i + 0.5) * kDp, (j + 0.5) * kDp, -(q + 0.5) * kDp));
+          normals.push_back(Vec<3>::UnitZ());
           tags.push_back(1);
         }
   }
@@ -61,10 +62,12 @@ SceneSetup<3> sliding_block(bool bed_as_source, BoundaryPressure walls) {
   if (bed_as_source) {
     s.wall_source = std::make_shared<PlaneSource>();
   } else {
-    std::vector<Vec<3>> pos;
+    std::vector<Vec<3>> pos, normals;
     std::vector<uint32_t> tags;
-    for (int64_t t = 0; t < plane.tiles().count(); ++t) plane.lay(t, pos, tags);
+    for (int64_t t = 0; t < plane.tiles().count(); ++t) plane.lay(t, pos, normals, tags);
+    s.boundary_normals.assign(s.boundary.size(), Vec<3>::Zero());  // the side walls': estimated, as with tiles
     for (size_t k = 0; k < pos.size(); ++k) s.boundary.add(pos[k], 1000, m0, 0, tags[k]);
+    s.boundary_normals.insert(s.boundary_normals.end(), normals.begin(), normals.end());
   }
   for (int i = 0; i < 6; ++i)
     for (int j = 0; j < 6; ++j)
@@ -80,11 +83,11 @@ size_t missing_walls(const Solver<3>& solver, const PlaneSource& plane, size_t f
   std::set<uint32_t> alive(solver.boundary().id.begin(), solver.boundary().id.end());
   const double support = 2 * solver.config().smoothing_length;
   size_t missing = 0;
-  std::vector<Vec<3>> pos;
+  std::vector<Vec<3>> pos, normals;
   std::vector<uint32_t> tags;
   for (int64_t t = 0; t < plane.tiles().count(); ++t) {
     pos.clear();
-    plane.lay(t, pos, tags);
+    plane.lay(t, pos, normals, tags);
     for (size_t k = 0; k < pos.size(); ++k) {
       const auto id = static_cast<uint32_t>(fixed + plane.first_index(t) + k);
       if (alive.count(id)) continue;

@@ -59,10 +59,10 @@ TerrainSpec base_spec(const Valley& v, const std::string& dem) {
 
 // Every wall particle of a model: the structures' and all of the bed source's tiles.
 std::vector<Vec<3>> all_wall_particles(const TerrainModel& m) {
-  std::vector<Vec<3>> pos = m.boundary;
+  std::vector<Vec<3>> pos = m.boundary, normals;
   std::vector<uint32_t> tags;
   const auto src = bed_wall_source(std::make_shared<const TerrainModel>(m));
-  for (int64_t t = 0; t < src->tiles().count(); ++t) src->lay(t, pos, tags);
+  for (int64_t t = 0; t < src->tiles().count(); ++t) src->lay(t, pos, normals, tags);
   return pos;
 }
 

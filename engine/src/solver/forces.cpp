@@ -85,6 +85,7 @@ PassContext<D> Solver<D>::pass_context() {
     c.P[d] = fluid_.pos[d].data();
     c.V[d] = fluid_.vel[d].data();
     c.BP[d] = boundary_.pos[d].data();
+    c.BN[d] = boundary_normal_[d].data();
     c.acc[d] = acc_[d].data();
     c.contact_normal[d] = contact_normal_[d].data();
   }

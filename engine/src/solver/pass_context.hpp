@@ -38,6 +38,7 @@ struct PassContext {
   const uint16_t* mat;
   // Boundary (bvol, bpt: the active ones).
   std::array<const real*, D> BP;
+  std::array<const real*, D> BN;  // the wall's unit normal (zero: unknown)
   const real *bmass, *brho, *bvol, *bpt;
   const uint32_t* bslot;
   // Viscous scenes: each particle's capped mu_eff and the viscosity its wall pairs see.

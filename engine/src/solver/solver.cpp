@@ -1,5 +1,6 @@
 #include "impl.hpp"
 #include "runout/engine/eos.hpp"
+#include "wall_normals.hpp"
 #include <omp.h>
 
 #include <algorithm>
@@ -23,6 +24,36 @@ void ParticleArrays<D>::add(const Vec<D>& p, real density, real m, uint16_t mat,
   material.push_back(mat);
   tag.push_back(tg);
   id.push_back(static_cast<uint32_t>(id.size()));
+}
+
+// The fixed wall particles' normals: as the scene gives them; those it does not give (none, or zero vectors)
+// are estimated from the arrangement of those particles alone within the kernel support, so a wall whose
+// normals are given (a bed laid whole) does not change the others' from what they are when it is laid in
+// tiles (the wall source's tiles bring their own).
+template <int D>
+void Solver<D>::set_fixed_wall_normals(const std::vector<Vec<D>>& given) {
+  const size_t nb = boundary_.size();
+  if (!given.empty() && given.size() != nb)
+    throw std::invalid_argument("boundary_normals: one per boundary particle or none");
+  std::vector<size_t> unknown;
+  for (size_t b = 0; b < nb; ++b)
+    if (given.empty() || given[b].isZero()) unknown.push_back(b);
+  std::array<std::vector<real>, D> pos;
+  for (int d = 0; d < D; ++d)
+    for (size_t b : unknown) pos[d].push_back(boundary_.pos[d][b]);
+  Vec<D> period;
+  for (int d = 0; d < D; ++d) period[d] = config_.periodic[d] ? config_.domain_max[d] - config_.domain_min[d] : 0.0;
+  const std::vector<Vec<D>> estimated =
+      solver_detail::estimate_wall_normals<D>(pos, 2.0 * config_.smoothing_length, period);
+  std::vector<Vec<D>> normals = given.empty() ? std::vector<Vec<D>>(nb, Vec<D>::Zero()) : given;
+  for (size_t k = 0; k < unknown.size(); ++k) normals[unknown[k]] = estimated[k];
+  for (int d = 0; d < D; ++d) {
+    boundary_normal_[d].resize(nb);
+    for (size_t b = 0; b < nb; ++b) {
+      const real len = normals[b].norm();
+      boundary_normal_[d][b] = len > 0 ? normals[b][d] / len : 0.0;
+    }
+  }
 }
 
 long double MassBalance::total_initial() const { return std::accumulate(initial.begin(), initial.end(), 0.0L); }
@@ -109,6 +140,7 @@ Solver<D>::Solver(SceneSetup<D> setup)
   std::iota(I.boundary_rank.begin(), I.boundary_rank.end(), uint64_t{0});
   boundary_rho_saved_ = boundary_.rho;
   boundary_pressure_.assign(boundary_.size(), 0.0);
+  set_fixed_wall_normals(setup.boundary_normals);
   if (wall_source_) {
     I.tiles = wall_source_->tiles();
     I.tile_live.assign(static_cast<size_t>(I.tiles.count()), 0);

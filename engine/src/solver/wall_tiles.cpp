@@ -79,7 +79,8 @@ void Solver<D>::refresh_wall_tiles(bool force) {
   // Drop the particles of tiles no longer wanted; those kept keep their state (a DBC wall's density).
   std::vector<char> keep(boundary_.size());
   for (size_t b = 0; b < keep.size(); ++b) keep[b] = I.boundary_tile[b] < 0 || I.tile_mark[I.boundary_tile[b]] == I.mark_stamp;
-  for (int d = 0; d < D; ++d) compact(boundary_.pos[d], keep), compact(boundary_.vel[d], keep);
+  for (int d = 0; d < D; ++d)
+    compact(boundary_.pos[d], keep), compact(boundary_.vel[d], keep), compact(boundary_normal_[d], keep);
   compact(boundary_.rho, keep), compact(boundary_.mass, keep), compact(boundary_.material, keep);
   compact(boundary_.tag, keep), compact(boundary_.id, keep), compact(I.boundary_tile, keep);
   compact(I.boundary_rank, keep), compact(boundary_rho_saved_, keep), compact(boundary_pressure_, keep);
@@ -88,17 +89,19 @@ void Solver<D>::refresh_wall_tiles(bool force) {
 
   // Lay the new ones.
   const real bmass = config_.boundary_density * std::pow(config_.dp, D);
-  std::vector<Vec<D>> pos;
+  std::vector<Vec<D>> pos, normals;
   std::vector<uint32_t> tags;
   for (int64_t t : wanted) {
     if (I.tile_live[t]) continue;
     I.tile_live[t] = 1;
     pos.clear();
+    normals.clear();
     tags.clear();
-    wall_source_->lay(t, pos, tags);
+    wall_source_->lay(t, pos, normals, tags);
     const uint64_t first = I.boundary_fixed + wall_source_->first_index(t);
     for (size_t k = 0; k < pos.size(); ++k) {
       boundary_.add(pos[k], config_.boundary_density, bmass, 0, tags[k]);
+      for (int d = 0; d < D; ++d) boundary_normal_[d].push_back(normals[k][d]);
       boundary_.id.back() = static_cast<uint32_t>(first + k);
       I.boundary_tile.push_back(t);
       I.boundary_rank.push_back(first + k);
@@ -133,7 +136,7 @@ void Solver<D>::sort_boundary() {
     for (size_t k = 0; k < nb; ++k) out[k] = v[std::get<2>(order[k])];
     v.swap(out);
   };
-  for (int d = 0; d < D; ++d) permute(boundary_.pos[d]), permute(boundary_.vel[d]);
+  for (int d = 0; d < D; ++d) permute(boundary_.pos[d]), permute(boundary_.vel[d]), permute(boundary_normal_[d]);
   permute(boundary_.rho), permute(boundary_.mass), permute(boundary_.material), permute(boundary_.tag);
   permute(boundary_.id), permute(I.boundary_tile), permute(I.boundary_rank), permute(boundary_rho_saved_);
   permute(boundary_pressure_);

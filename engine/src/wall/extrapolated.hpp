@@ -1,7 +1,11 @@
 #pragma once
-// Extrapolated wall pressure (Adami, Hu & Adams 2012, with the hydrostatic term): each step
-// p_b = sum_f (p_f + rho_f g.(x_b - x_f)) W_bf / sum_f W_bf, clamped at 0, and the density from the EOS.
-// No memory, so no pressure cushion under a thinning, spreading layer.
+// Extrapolated wall pressure (Adami, Hu & Adams 2012, with the hydrostatic term across the wall): each step
+// p_b = sum_f (p_f + rho_f (g.n_b)(n_b.(x_b - x_f))) W_bf / sum_f W_bf, clamped at 0, and the density from
+// the EOS; n_b the wall's normal (all of g where it has none). No memory, so no pressure cushion under a
+// thinning, spreading layer. Only g's component across the wall: along a bed, gravity drives a flow against
+// its basal shear, not against a pressure gradient, and Adami's full g.(x_b - x_f) made the wall particles
+// downslope of a sheet's edge push harder than those upslope, holding a one-particle row on a 30 degree slope
+// to a third of the Coulomb slide's speed (docs/design.md, "Thin sheets, walls and basal friction").
 #include <algorithm>
 #include <cmath>
 
@@ -26,14 +30,17 @@ struct extrapolated {
             const uint32_t* L = I.list_of(i) + I.list_nf[i];
             for (uint32_t q = 0; q < I.list_nb[i]; ++q) {
               const uint32_t b = L[q];
-              real r2 = 0, gdx = 0;
+              real r2 = 0, gdx = 0, gn = 0, ndx = 0, nn = 0;
               for (int d = 0; d < D; ++d) {
                 // x_b - x_f up to the periodic image: the same as -(x_i - x_b) from the fluid's side.
                 real dxd = c.BP[d][b] - c.P[d][i];
                 if (c.any_periodic && c.period[d] > 0) dxd -= c.period[d] * std::round(dxd / c.period[d]);
                 r2 += dxd * dxd;
                 gdx += c.g[d] * dxd;
+                const real nd = c.BN[d][b];
+                gn += c.g[d] * nd, ndx += nd * dxd, nn += nd * nd;
               }
+              if (nn > 0) gdx = gn * ndx;
               const real w = kernel.W(std::sqrt(r2));
               Bacc[2 * c.bslot[b]] += w;
               Bacc[2 * c.bslot[b] + 1] += (c.press[i] + c.rho[i] * gdx) * w;

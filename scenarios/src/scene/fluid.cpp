@@ -134,10 +134,13 @@ void make_particles(Build<D>& b) {
   if constexpr (D == 3) {
     if (b.bed_source && b.walls_near_flow) setup.wall_source = b.bed_source;
     if (b.bed_source && !b.walls_near_flow) {
-      std::vector<Vec<3>> pos;
+      // Laid whole: the bed's normals as its tiles would bring them; the other walls' are estimated.
+      std::vector<Vec<3>> pos, normals;
       std::vector<uint32_t> tags;
-      for (int64_t t = 0; t < b.bed_source->tiles().count(); ++t) b.bed_source->lay(t, pos, tags);
+      for (int64_t t = 0; t < b.bed_source->tiles().count(); ++t) b.bed_source->lay(t, pos, normals, tags);
+      setup.boundary_normals.assign(setup.boundary.size(), Vec<3>::Zero());
       for (size_t k = 0; k < pos.size(); ++k) setup.boundary.add(pos[k], cfg.boundary_density, bmass, 0, tags[k]);
+      setup.boundary_normals.insert(setup.boundary_normals.end(), normals.begin(), normals.end());
     }
   }
   setup.max_particles = b.scene.max_particles;

@@ -154,6 +154,10 @@ struct SceneSetup {
   std::vector<InletSpec<D>> inlets;
   // Wall particles laid near the flow only (a terrain's bed), besides the `boundary` ones, which always exist.
   std::shared_ptr<const WallSource<D>> wall_source;
+  // The wall's normal at each `boundary` particle, one each or none; those not given (none, or a zero vector)
+  // are estimated from the arrangement of the particles not given (wall_normals.cpp). The extrapolated wall
+  // pressure's hydrostatic term acts along it.
+  std::vector<Vec<D>> boundary_normals;
   // Most particles (fluid and boundary) alive at once; 0: no limit. Checked whenever wall tiles are laid.
   long max_particles = 0;
 };
@@ -203,6 +207,8 @@ class Solver {
   const std::vector<real>& fluid_effective_viscosity() const { return mu_eff_; }
   const std::vector<real>& fluid_shear_rate() const { return shear_rate_; }
   const std::vector<real>& boundary_pressure() const { return boundary_pressure_; }
+  // The wall's unit normal at each boundary particle (its sign is arbitrary; zero where none could be found).
+  const std::array<std::vector<real>, D>& boundary_normal() const { return boundary_normal_; }
   const StepStats& last_step() const { return stats_; }
   // Wall particles: the most alive at once, all the scene describes (the fixed ones and every tile of the wall
   // source), and a counter that changes whenever boundary() is rebuilt (its indices are then invalid).
@@ -259,6 +265,7 @@ class Solver {
   std::vector<real> rho_saved_;
   // boundary work arrays
   std::vector<real> boundary_drho_, boundary_pressure_, boundary_rho_saved_;
+  std::array<std::vector<real>, D> boundary_normal_;
 
   real time_ = 0;
   long steps_ = 0;
@@ -276,6 +283,7 @@ class Solver {
   // it left, and sorts the boundary by cell.
   void refresh_wall_tiles(bool force);
   void sort_boundary();
+  void set_fixed_wall_normals(const std::vector<Vec<D>>& given);
   // One force evaluation (forces.cpp) and its steps.
   void evaluate(bool compute_dt);
   void update_fluid_state();              // EOS, per-particle volumes and the neighbour pack

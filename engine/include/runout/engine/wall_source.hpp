@@ -24,8 +24,11 @@ class WallSource {
  public:
   virtual ~WallSource() = default;
   virtual WallTileGrid tiles() const = 0;
-  // Appends tile t's particles: positions and boundary tags. The same particles in the same order every call.
-  virtual void lay(int64_t t, std::vector<Vec<D>>& positions, std::vector<uint32_t>& tags) const = 0;
+  // Appends tile t's particles: positions, the wall's unit normal at each (the axis the extrapolated wall
+  // pressure's hydrostatic term acts along; its sign does not matter) and boundary tags. The same particles
+  // in the same order every call.
+  virtual void lay(int64_t t, std::vector<Vec<D>>& positions, std::vector<Vec<D>>& normals,
+                   std::vector<uint32_t>& tags) const = 0;
   // Particles in the tiles before t (in tile order): a particle's id is that plus its place in its tile, so
   // ids are the same whether a tile is laid at the start or during the run.
   virtual uint64_t first_index(int64_t t) const = 0;
