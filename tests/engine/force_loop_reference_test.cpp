@@ -62,6 +62,44 @@ struct Reference {
   std::unordered_map<uint32_t, bool> boundary_near_fluid;
 };
 
+// The wall particles' pressure (extrapolated from the fluid along the wall normal, or DBC from their
+// density) and whether any fluid is near each; rewrites B's density where extrapolated.
+template <int D, class Kernel, class Sep>
+void reference_wall_pressure(const SceneSetup<D>& s, const Kernel& kernel,
+                             const std::unordered_map<uint32_t, Vec<D>>& normals, const std::vector<real>& p,
+                             const Sep& sep, ParticleArrays<D>& B, std::vector<real>& pb, Reference<D>& out) {
+  const SolverConfig& c = s.config;
+  const auto& F = s.fluid;
+  const size_t nf = F.size(), nb = B.size();
+  const real c0 = c.speed_of_sound, gam = c.eos_gamma;
+  const real support2 = kernel.support() * kernel.support();
+  Vec<D> g;
+  for (int d = 0; d < D; ++d) g[d] = c.gravity[d];
+  auto tait = [&](real rho, real rho0) { return c0 * c0 * rho0 / gam * (std::pow(rho / rho0, gam) - 1.0); };
+  for (size_t b = 0; b < nb; ++b) {
+    bool near = false;
+    real sw = 0, spw = 0;
+    for (size_t j = 0; j < nf; ++j) {
+      const Vec<D> dx = sep(B.position(b), F.position(j));
+      if (dx.squaredNorm() >= support2) continue;
+      near = true;
+      const real w = kernel.W(dx.norm());
+      sw += w;
+      const Vec<D>& n = normals.at(B.id[b]);
+      const real hydro = n.squaredNorm() > 0 ? g.dot(n) * n.dot(dx) : g.dot(dx);
+      spw += (p[j] + F.rho[j] * hydro) * w;
+    }
+    out.boundary_near_fluid[B.id[b]] = near;
+    if (c.boundary_pressure == BoundaryPressure::extrapolated) {
+      pb[b] = sw > 0 ? std::max(spw / sw, 0.0) : 0.0;
+      if (near) B.rho[b] = c.boundary_density * std::pow(1.0 + pb[b] / (c0 * c0 * c.boundary_density / gam), 1.0 / gam);
+    } else {
+      pb[b] = tait(B.rho[b], c.boundary_density);
+    }
+    out.boundary_pressure[B.id[b]] = pb[b];
+  }
+}
+
 // Plain loops over all pairs, with the minimum image along periodic axes.
 template <int D, class Kernel>
 // `normals`: the wall normal of each boundary particle by id, as the solver has it (its estimate is
@@ -104,28 +142,7 @@ Reference<D> reference(const SceneSetup<D>& s, const Kernel& kernel, real max_vi
     p[i] = std::max(tait(F.rho[i], m.density), -rheo[F.material[i]]->tensile_strength());
   }
   Reference<D> out;
-  for (size_t b = 0; b < nb; ++b) {
-    bool near = false;
-    real sw = 0, spw = 0;
-    for (size_t j = 0; j < nf; ++j) {
-      const Vec<D> dx = sep(B.position(b), F.position(j));
-      if (dx.squaredNorm() >= support2) continue;
-      near = true;
-      const real w = kernel.W(dx.norm());
-      sw += w;
-      const Vec<D>& n = normals.at(B.id[b]);
-      const real hydro = n.squaredNorm() > 0 ? g.dot(n) * n.dot(dx) : g.dot(dx);
-      spw += (p[j] + F.rho[j] * hydro) * w;
-    }
-    out.boundary_near_fluid[B.id[b]] = near;
-    if (c.boundary_pressure == BoundaryPressure::extrapolated) {
-      pb[b] = sw > 0 ? std::max(spw / sw, 0.0) : 0.0;
-      if (near) B.rho[b] = c.boundary_density * std::pow(1.0 + pb[b] / (c0 * c0 * c.boundary_density / gam), 1.0 / gam);
-    } else {
-      pb[b] = tait(B.rho[b], c.boundary_density);
-    }
-    out.boundary_pressure[B.id[b]] = pb[b];
-  }
+  reference_wall_pressure(s, kernel, normals, p, sep, B, pb, out);
 
   // Pass 1: continuity, density diffusion, velocity gradient, kernel-averaged pressure.
   std::vector<real> div(nf, 0), diff(nf, 0), gdot(nf), yield_p(nf), mu(nf, 0), mu_wall(nf, 0);
