@@ -556,7 +556,8 @@ json settings_metrics(const Solver<D>& solver) {
           {"viscosity_cap_pa_s", solver.max_viscosity()},
           {"shear_rate_floor_1_s", cfg.shear_rate_floor},
           {"density_floor", cfg.density_floor},
-          {"max_dilatancy", cfg.max_dilatancy}};
+          {"max_dilatancy", cfg.max_dilatancy},
+          {"boundary_pressure", boundary_pressure_names()[static_cast<size_t>(cfg.boundary_pressure)]}};
 }
 
 // What the cost model predicts from (docs/tradeoff.md): stored with the run so `runout calibrate` can refit.

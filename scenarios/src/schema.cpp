@@ -168,14 +168,20 @@ json numerics_schema() {
                 {"density_diffusion", {{"enum", density_diffusion_names()}}},
                 {"boundary_pressure", {{"enum", boundary_pressure_names()}}},
                 {"density_floor", {{"type", "boolean"}}}};
+  // A default that depends on the scene (text with a ';') is stated in the description, not as "default".
   for (const auto& f : numerics_choice_fields()) {
-    props[f.key]["description"] = f.doc;
-    if (f.key != "boundary_pressure") props[f.key]["default"] = f.default_text == "false" ? json(false) : json(f.default_text);
+    const bool conditional = f.default_text.find(';') != std::string::npos;
+    props[f.key]["description"] = conditional ? f.doc + "; default: " + f.default_text : f.doc;
+    if (!conditional) props[f.key]["default"] = f.default_text == "false" ? json(false) : json(f.default_text);
   }
   for (const auto& p : numerics_parameters()) {
     props[p.key] = number_schema(p);
     if (p.integer) props[p.key]["type"] = "integer";
   }
+  props["max_dilatancy"].erase("default");
+  props["max_dilatancy"]["description"] =
+      props["max_dilatancy"]["description"].get<std::string>() + "; default: " +
+      format_number(GranularDefaults::max_dilatancy) + " in a scene with a granular material, else 0";
   for (const auto& f : scene_numerics_fields()) props[f.key] = field_schema(f);
   props["viscosity_cap"] = {{"anyOf", {field_schema(field_spec(scene_numerics_fields(), "viscosity_cap")), {{"const", "auto"}}}}};
   return {{"type", "object"}, {"properties", props}, {"additionalProperties", false}};

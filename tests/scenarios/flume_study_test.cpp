@@ -1,5 +1,6 @@
 // The C0-C7 study on the shipped flume (scenarios/flume/), at the sweep's draft fidelity with the scene's
-// numerics (the density floor with 10 % dilatancy). What a draft run can show, and nothing more:
+// numerics (the engine's granular default, the density floor with 10 % dilatancy, on DBC walls: the scene's
+// description says why). What a draft run can show, and nothing more:
 //   - physical facts on every layout: the run completes, no particle leaks, mass is conserved, and the
 //     granular material keeps its bulk density (final rho/rho0: p50 within 2 %, p5 no lower than the floor's
 //     0.9; without the floor the draft C1 and C6 end at p50 0.51 and 0.47, p5 0.17);

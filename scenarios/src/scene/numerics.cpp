@@ -37,9 +37,11 @@ const std::vector<FieldSpec>& numerics_choice_fields() {
       choice_field("kernel", "the smoothing kernel", kernel_names().front()),
       choice_field("integrator", "the time integrator", integrator_names().front()),
       choice_field("density_diffusion", "the density-diffusion term", density_diffusion_names().back()),
-      choice_field("boundary_pressure", "how wall particles get their pressure", "dbc; extrapolated with inlets"),
+      choice_field("boundary_pressure", "how wall particles get their pressure",
+                   "dbc; extrapolated with inlets or a granular material"),
       [] {
-        FieldSpec f = choice_field("density_floor", "floor the density under rho0 (granular materials)", "false");
+        FieldSpec f = choice_field("density_floor", "floor the density under rho0 (granular materials)",
+                                   "false; true with a granular material");
         f.shape = "boolean";
         return f;
       }(),
@@ -55,6 +57,14 @@ const ParameterSpec& scene_numeric(const std::string& key) {
 }
 
 const std::string& default_choice(const std::string& key) { return field_spec(numerics_choice_fields(), key).default_text; }
+
+// With one, the numerics default to GranularDefaults (scene.hpp).
+template <int D>
+bool has_granular_material(const Build<D>& b) {
+  for (const auto& m : b.setup.materials)
+    if (rheology_model(m.rheology).traits.granular) return true;
+  return false;
+}
 
 Fields numerics_fields(const json& j) {
   std::set<std::string> keys;
@@ -102,7 +112,8 @@ void read_viscosity_cap(const Fields& num, SolverConfig& cfg) {
 // throws the new flow off the bed (measured: tests/engine/inlet_test.cpp detaches at t < 0.2 s with dbc).
 template <int D>
 void read_walls(const Build<D>& b, const Fields& num, SolverConfig& cfg) {
-  const std::string bp_default = b.setup.inlets.empty() ? "dbc" : "extrapolated";
+  const std::string bp_default =
+      b.setup.inlets.empty() && !has_granular_material(b) ? "dbc" : GranularDefaults::boundary_pressure;
   cfg.boundary_pressure =
       boundary_pressure_from_name(num.string_or("boundary_pressure", bp_default, boundary_pressure_names()));
   if (!b.setup.inlets.empty() && cfg.boundary_pressure == BoundaryPressure::dbc)
@@ -145,8 +156,10 @@ void read_numerics(Build<D>& b) {
   cfg.viscosity_cap_factor = numeric("viscosity_cap_factor");
   cfg.shear_rate_floor = numeric("shear_rate_floor");
   cfg.min_dt = numeric("min_dt");
-  cfg.density_floor = num.boolean_or("density_floor", false);
-  cfg.max_dilatancy = numeric("max_dilatancy");
+  const bool granular = has_granular_material(b);
+  cfg.density_floor = num.boolean_or("density_floor", granular && GranularDefaults::density_floor);
+  cfg.max_dilatancy =
+      granular && cfg.density_floor && !num.has("max_dilatancy") ? GranularDefaults::max_dilatancy : numeric("max_dilatancy");
   if (num.has("max_dilatancy") && !cfg.density_floor)
     throw SceneError(num.at("max_dilatancy"), "sets how far under rho0 the density floor stands: needs numerics.density_floor = true");
   read_walls(b, num, cfg);

@@ -61,6 +61,16 @@ const std::vector<FieldSpec>& scene_numerics_fields();
 // The choices of the numerics section (kernel, integrator, density_diffusion, boundary_pressure, density_floor).
 const std::vector<FieldSpec>& numerics_choice_fields();
 
+// A scene with a granular material (a rheology with traits.granular) defaults to these numerics: a material
+// that carries no tension drifts far under rho0 where it thins and clumps without the floor, and DBC walls
+// build a pressure cushion under a thin frictional layer that stops it on a slope (docs/design.md,
+// "Granular defaults"). The floor's dilatancy: loose against dense random packing.
+struct GranularDefaults {
+  static constexpr const char* boundary_pressure = "extrapolated";
+  static constexpr bool density_floor = true;
+  static constexpr double max_dilatancy = 0.1;
+};
+
 // `base_dir` resolves relative file names in the scene (terrain.dem); load_scene uses the file's folder.
 Scene parse_scene(const std::string& json_text, const std::filesystem::path& base_dir = {});
 Scene load_scene(const std::filesystem::path& path);
