@@ -26,6 +26,11 @@ double inlet_volume(const InletSpec<D>& in, double dp, double T) {
   return v * area;
 }
 
+// A flow's plan extent in columns of dp^(D-1), up to a constant of its shape: fluid^((D-1)/D).
+double flow_columns(const CostFeatures& f) {
+  return std::pow(std::max(f.fluid, f.fluid_peak), (f.dimensions - 1.0) / f.dimensions);
+}
+
 }  // namespace
 
 CostFeatures cost_features(const Scene& scene) {
@@ -38,7 +43,9 @@ CostFeatures cost_features(const Scene& scene) {
         const SolverConfig& c = setup.config;
         const double h = c.smoothing_length, dp = c.dp;
         f.fluid = static_cast<double>(setup.fluid.size());
-        f.boundary = static_cast<double>(setup.boundary.size() + (setup.wall_source ? setup.wall_source->total() : 0));
+        f.boundary_fixed = static_cast<double>(setup.boundary.size());
+        f.bed = setup.wall_source ? static_cast<double>(setup.wall_source->total()) : 0.0;
+        f.boundary = f.boundary_fixed + f.bed;
         f.neighbours = std::pow(h / dp, D);
         // Inlets: their buffers work from the start; what they deliver joins the flow linearly on average.
         double buffer = 0, inflow = 0;
@@ -47,6 +54,7 @@ CostFeatures cost_features(const Scene& scene) {
           inflow += inlet_volume(in, dp, scene.duration) / std::pow(dp, D);
         }
         f.fluid_mean = f.fluid + buffer + 0.5 * inflow;
+        f.fluid_peak = f.fluid + buffer + inflow;
 
         // The engine's step limits at rest (solver.cpp): acoustic cfl h / c0, force cfl sqrt(h / g), viscous
         // 0.125 h^2 / nu with mu_eff capped (yield-stress and power-law materials reach the cap in their plugs).
@@ -75,11 +83,12 @@ CostFeatures cost_features(const Scene& scene) {
 
 CostModel CostModel::calibrated() {
   CostModel m;
-  // Fitted by `runout calibrate` on 15 runs of the shipped scenes, one thread each, on the quiet 2-core
-  // development machine, 2026-11-29, after the engine's pair-list rewrite, default (native) build
-  // (docs/tradeoff.md, "The cost model": the runs, the command, the errors).
-  m.two_d = {1.014, 2.14e-7, 4.59e-8, 9.06e-5};
-  m.three_d = {1.115, 4.17e-7, 1.83e-9, 0.0};
+  // Fitted by `runout calibrate` on 15 runs of the shipped scenes, one thread each, two at once on the 2-core
+  // development machine, 2026-12-03, default (native) build, with the bed alive near the flow measured
+  // (particles.boundary_peak): docs/tradeoff.md, "The cost model": the runs, the command, the errors.
+  m.two_d = {1.011, 3.35e-7, 0.0, 9.64e-5};
+  m.three_d = {1.054, 5.21e-7, 1.08e-7, 0.0};
+  m.bed_per_flow_column = 144;
   // Not fitted by `runout calibrate` (its runs are one-thread): least squares on the relative time error of
   // twelve one- against two-thread pairs, 2026-11-29 (docs/tradeoff.md, "Two threads"): the flume (C0 at
   // 0.07 / 0.05 / 0.03 m), the catchment's G7 at 6 and 4 m, the Jacksboro slope at 1 m, the 2D dam break and
@@ -92,6 +101,10 @@ CostModel CostModel::calibrated() {
   return m;
 }
 
+double CostModel::boundary_peak(const CostFeatures& f) const {
+  return f.boundary_fixed + std::min(f.bed, bed_per_flow_column * flow_columns(f));
+}
+
 double CostModel::speedup(const CostFeatures& f, int threads) const {
   const double n = std::max(0.0, f.fluid_mean);
   const double e = n > 0 ? parallel_efficiency * n / (n + parallel_half_fluid) : 0.0;
@@ -102,16 +115,32 @@ CostPrediction CostModel::predict(const CostFeatures& f, int threads) const {
   const CostCoefficients& k = f.dimensions == 2 ? two_d : three_d;
   CostPrediction p;
   p.particles = f.fluid + f.boundary;
+  p.fluid_peak = std::max(f.fluid, f.fluid_peak);
+  p.boundary_peak = boundary_peak(f);
   p.steps = f.dt0 > 0 ? std::ceil(k.step_ratio * f.duration / f.dt0) : 0;
   p.speedup = speedup(f, threads);
   p.seconds_per_step =
-      (k.a_fluid * f.fluid_mean * f.neighbours * f.passes + k.b_boundary * f.boundary + k.c_step) / p.speedup;
+      (k.a_fluid * f.fluid_mean * f.neighbours * f.passes + k.b_boundary * p.boundary_peak + k.c_step) / p.speedup;
   p.seconds = p.steps * p.seconds_per_step;
   return p;
 }
 
+// k_bed: the geometric mean of the measured bed peak over the flow's columns (least squares on log ratio).
+double fit_bed_per_flow_column(const std::vector<CostObservation>& runs, double prior) {
+  double log_sum = 0;
+  int n = 0;
+  for (const auto& r : runs) {
+    const double bed_peak = r.boundary_peak - r.features.boundary_fixed;
+    if (r.features.bed <= 0 || flow_columns(r.features) <= 0 || bed_peak <= 0) continue;
+    log_sum += std::log(bed_peak / flow_columns(r.features));
+    ++n;
+  }
+  return n > 0 ? std::exp(log_sum / n) : prior;
+}
+
 CostModel fit_cost_model(const std::vector<CostObservation>& runs, const CostModel& prior) {
   CostModel out = prior;
+  out.bed_per_flow_column = fit_bed_per_flow_column(runs, prior.bed_per_flow_column);
   for (int D : {2, 3}) {
     std::vector<const CostObservation*> obs;
     for (const auto& r : runs)
@@ -131,7 +160,8 @@ CostModel fit_cost_model(const std::vector<CostObservation>& runs, const CostMod
       for (size_t i = 0; i < obs.size(); ++i) {
         const auto& r = *obs[i];
         const double y = r.wall_seconds * out.speedup(r.features, r.threads) / r.steps;
-        const double x[3] = {r.features.fluid_mean * r.features.neighbours * r.features.passes, r.features.boundary, 1.0};
+        const double walls = r.boundary_peak > 0 ? r.boundary_peak : out.boundary_peak(r.features);
+        const double x[3] = {r.features.fluid_mean * r.features.neighbours * r.features.passes, walls, 1.0};
         for (size_t c = 0; c < cols.size(); ++c) A(i, c) = x[cols[c]] / y;
       }
       const Eigen::VectorXd coef = A.colPivHouseholderQr().solve(b);
@@ -163,6 +193,11 @@ bool cost_observation_from_metrics(const std::string& metrics_json, CostObservat
     out.features.fluid = c.at("fluid").get<double>();
     out.features.fluid_mean = c.at("fluid_mean").get<double>();
     out.features.boundary = c.at("boundary").get<double>();
+    // Stored before the bed was laid near the flow: every boundary particle was alive.
+    out.features.boundary_fixed = c.value("boundary_fixed", out.features.boundary);
+    out.features.bed = c.value("bed", 0.0);
+    out.features.fluid_peak = c.value("fluid_peak", out.features.fluid);
+    out.boundary_peak = j.contains("particles") ? j["particles"].value("boundary_peak", 0.0) : 0.0;
     out.features.neighbours = c.at("neighbours").get<double>();
     out.features.passes = c.at("passes").get<double>();
     out.features.duration = c.at("duration_s").get<double>();

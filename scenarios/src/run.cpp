@@ -563,8 +563,15 @@ json settings_metrics(const Solver<D>& solver) {
 // What the cost model predicts from (docs/tradeoff.md): stored with the run so `runout calibrate` can refit.
 json cost_feature_metrics(const Scene& scene) {
   const CostFeatures cf = cost_features(scene);
-  return {{"fluid", cf.fluid},           {"fluid_mean", cf.fluid_mean}, {"boundary", cf.boundary},
-          {"neighbours", cf.neighbours}, {"passes", cf.passes},         {"duration_s", cf.duration},
+  return {{"fluid", cf.fluid},
+          {"fluid_mean", cf.fluid_mean},
+          {"fluid_peak", cf.fluid_peak},
+          {"boundary", cf.boundary},
+          {"boundary_fixed", cf.boundary_fixed},
+          {"bed", cf.bed},
+          {"neighbours", cf.neighbours},
+          {"passes", cf.passes},
+          {"duration_s", cf.duration},
           {"dt0_s", cf.dt0}};
 }
 

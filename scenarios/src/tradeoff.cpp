@@ -251,14 +251,17 @@ TradeoffResult run_tradeoff(RunStore& store, const TradeoffSpec& spec, const Tra
     const CostPrediction pred = model.predict(cost_features(scene), threads > 0 ? threads : omp_get_max_threads());
     L.predicted_steps = pred.steps;
     L.predicted_seconds = pred.seconds;
+    L.predicted_fluid_peak = pred.fluid_peak;
+    L.predicted_boundary_peak = pred.boundary_peak;
     if (opt.predict_only) {
       L.fluid = cost_features(scene).fluid;
       L.boundary = pred.particles - L.fluid;
       L.build_seconds = p.build_seconds;
       p.scene.reset();
       if (opt.on_line)
-        opt.on_line(L.label + ": " + fmt(pred.particles, "%.0f") + " particles, predicted " + fmt(pred.steps, "%.0f") +
-                    " steps, " + fmt(pred.seconds, "%.0f") + " s");
+        opt.on_line(L.label + ": " + fmt(pred.particles, "%.0f") + " particles described, predicted at most " +
+                    fmt(pred.fluid_peak, "%.0f") + " flow and " + fmt(pred.boundary_peak, "%.0f") + " wall alive, " +
+                    fmt(pred.steps, "%.0f") + " steps, " + fmt(pred.seconds, "%.0f") + " s");
       result.levels.push_back(std::move(L));
       continue;
     }
@@ -303,6 +306,7 @@ TradeoffResult run_tradeoff(RunStore& store, const TradeoffSpec& spec, const Tra
     auto get = [&](const char* k) { const auto it = L.metrics.find(k); return it == L.metrics.end() ? 0.0 : it->second; };
     L.fluid = get("particles.fluid_initial");
     L.boundary = get("particles.boundary");
+    L.boundary_peak = get("particles.boundary_peak");
     L.steps = get("steps");
     L.wall_seconds = get("wall_time_s");
     L.particle_steps_per_s = get("particle_steps_per_s");
@@ -337,11 +341,13 @@ std::string format_tradeoff(const TradeoffResult& r) {
     }
     return out;
   };
-  std::vector<std::vector<std::string>> rows{{"level", "dp [m]", "fluid", "boundary", "steps", "wall [s]",
-                                              "predicted [s]", "pred/meas", "fluid p-steps/s", "peak MB", "build [s]",
-                                              "status"}};
+  std::vector<std::vector<std::string>> rows{{"level", "dp [m]", "fluid", "boundary", "alive", "alive pred.", "steps",
+                                              "wall [s]", "predicted [s]", "pred/meas", "fluid p-steps/s", "peak MB",
+                                              "build [s]", "status"}};
   for (const auto& l : r.levels)
-    rows.push_back({l.label, fmt(l.dp), fmt(l.fluid, "%.0f"), fmt(l.boundary, "%.0f"), fmt(l.steps, "%.0f"),
+    rows.push_back({l.label, fmt(l.dp), fmt(l.fluid, "%.0f"), fmt(l.boundary, "%.0f"),
+                    l.boundary_peak > 0 ? fmt(l.boundary_peak, "%.0f") : "-", fmt(l.predicted_boundary_peak, "%.0f"),
+                    fmt(l.steps, "%.0f"),
                     fmt(l.wall_seconds, "%.1f"), fmt(l.predicted_seconds, "%.1f"),
                     l.wall_seconds > 0 ? fmt(l.predicted_seconds / l.wall_seconds, "%.2f") : "-",
                     fmt(l.particle_steps_per_s, "%.3g"), l.peak_memory_mb > 0 ? fmt(l.peak_memory_mb, "%.0f") : "-",
@@ -366,13 +372,15 @@ void write_tradeoff_csv(const TradeoffResult& r, const fs::path& dir) {
   fs::create_directories(dir);
   std::ofstream lv(dir / "levels.csv");
   lv << "level,dp_m,option,run_id,status,reused,fluid,boundary,steps,wall_s,predicted_steps,predicted_s,"
-        "fluid_particle_steps_per_s,peak_memory_mb,scene_build_s\n";
+        "fluid_particle_steps_per_s,peak_memory_mb,scene_build_s,boundary_peak,predicted_fluid_peak,"
+        "predicted_boundary_peak\n";
   for (const auto& l : r.levels)
     lv << '"' << l.label << "\"," << fmt(l.dp, "%.6g") << ",\"" << l.option << "\"," << l.run_id << ',' << l.status << ','
        << (l.reused ? 1 : 0) << ',' << fmt(l.fluid, "%.0f") << ',' << fmt(l.boundary, "%.0f") << ','
        << fmt(l.steps, "%.0f") << ',' << fmt(l.wall_seconds, "%.3f") << ',' << fmt(l.predicted_steps, "%.0f") << ','
        << fmt(l.predicted_seconds, "%.3f") << ',' << fmt(l.particle_steps_per_s, "%.6g") << ','
-       << fmt(l.peak_memory_mb, "%.1f") << ',' << fmt(l.build_seconds, "%.3f") << '\n';
+       << fmt(l.peak_memory_mb, "%.1f") << ',' << fmt(l.build_seconds, "%.3f") << ',' << fmt(l.boundary_peak, "%.0f")
+       << ',' << fmt(l.predicted_fluid_peak, "%.0f") << ',' << fmt(l.predicted_boundary_peak, "%.0f") << '\n';
   std::ofstream mt(dir / "metrics.csv");
   mt << "metric,finest";
   for (const auto& l : r.levels) mt << ",\"deviation_percent " << l.label << '"';

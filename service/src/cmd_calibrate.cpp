@@ -51,8 +51,8 @@ int calibrate(const CalibrateArgs& c) {
   const CostModel shipped = CostModel::calibrated();
   const CostModel fitted = fit_cost_model(runs, shipped);
   // Leave-one-out: each run predicted by a model fitted without it, the honest figure for a run not seen.
-  std::printf("%-44s %2s %8s %8s %8s %9s %9s %8s %8s %8s\n", "run", "D", "fluid", "boundary", "steps", "wall [s]",
-              "shipped", "err %", "fitted", "LOO %");
+  std::printf("%-44s %2s %8s %8s %8s %9s %8s %9s %9s %8s %8s %8s\n", "run", "D", "fluid", "boundary", "alive",
+              "predicted", "steps", "wall [s]", "shipped", "err %", "fitted", "LOO %");
   double worst_shipped = 0, worst_loo = 0;
   for (size_t i = 0; i < runs.size(); ++i) {
     std::vector<CostObservation> others = runs;
@@ -65,8 +65,9 @@ int calibrate(const CalibrateArgs& c) {
     const double es = 100 * (ps - r.wall_seconds) / r.wall_seconds, el = 100 * (pl - r.wall_seconds) / r.wall_seconds;
     worst_shipped = std::max(worst_shipped, std::abs(es));
     worst_loo = std::max(worst_loo, std::abs(el));
-    std::printf("%-44s %2d %8.0f %8.0f %8.0f %9.1f %9.1f %+8.1f %8.1f %+8.1f\n", r.label.substr(0, 44).c_str(),
-                r.features.dimensions, r.features.fluid, r.features.boundary, r.steps, r.wall_seconds, ps, es, pf, el);
+    std::printf("%-44s %2d %8.0f %8.0f %8.0f %9.0f %8.0f %9.1f %9.1f %+8.1f %8.1f %+8.1f\n", r.label.substr(0, 44).c_str(),
+                r.features.dimensions, r.features.fluid, r.features.boundary, r.boundary_peak,
+                fitted.boundary_peak(r.features), r.steps, r.wall_seconds, ps, es, pf, el);
   }
   auto coef = [](const CostCoefficients& k) {
     return json{{"step_ratio", k.step_ratio}, {"a_fluid_s", k.a_fluid}, {"b_boundary_s", k.b_boundary}, {"c_step_s", k.c_step}};
@@ -76,6 +77,7 @@ int calibrate(const CalibrateArgs& c) {
                     {"three_d", coef(fitted.three_d)},
                     {"parallel_efficiency", fitted.parallel_efficiency},
                     {"parallel_half_fluid", fitted.parallel_half_fluid},
+                    {"bed_per_flow_column", fitted.bed_per_flow_column},
                     {"worst_error_percent_shipped", worst_shipped},
                     {"worst_error_percent_leave_one_out", worst_loo}};
   std::printf("\nfitted on %zu runs: %s\n", runs.size(), out.dump().c_str());

@@ -24,13 +24,18 @@ void Server::Impl::routes_estimate() {
                {"dp", spec.resolved_dp},
                {"dimensions", spec.dimensions},
                {"particles",
-                {{"fluid", spec.fluid_particles}, {"boundary", spec.boundary_particles}, {"total", spec.particles}}},
+                {{"fluid", spec.fluid_particles},
+                 {"boundary", spec.boundary_particles},
+                 {"total", spec.particles},
+                 {"fluid_peak_estimate", p.fluid_peak},
+                 {"boundary_peak_estimate", p.boundary_peak}}},
                {"particle_budget", opt.particle_budget},
                {"steps_estimate", static_cast<int64_t>(p.steps)},
                {"seconds_estimate", p.seconds},
                {"model",
                 {{"formula", "steps = ceil(step_ratio * duration / dt0); seconds = steps * (a_fluid * fluid_mean * "
-                             "neighbours * passes + b_boundary * boundary + c_step) / speedup; speedup = 1 + "
+                             "neighbours * passes + b_boundary * boundary_peak + c_step) / speedup; boundary_peak = boundary_fixed "
+                             "+ min(bed, bed_per_flow_column * fluid_peak^((D-1)/D)); speedup = 1 + "
                              "parallel_efficiency * fluid_mean / (fluid_mean + parallel_half_fluid) * (threads - 1)"},
                  {"duration_s", spec.cost.duration},
                  {"dt_s", spec.cost.dt0},
@@ -38,6 +43,10 @@ void Server::Impl::routes_estimate() {
                  {"neighbours", spec.cost.neighbours},
                  {"passes", spec.cost.passes},
                  {"boundary", spec.cost.boundary},
+                 {"boundary_fixed", spec.cost.boundary_fixed},
+                 {"bed", spec.cost.bed},
+                 {"fluid_peak", spec.cost.fluid_peak},
+                 {"bed_per_flow_column", model.bed_per_flow_column},
                  {"step_ratio", k.step_ratio},
                  {"a_fluid_s", k.a_fluid},
                  {"b_boundary_s", k.b_boundary},

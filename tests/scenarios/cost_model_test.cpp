@@ -39,6 +39,8 @@ TEST(CostFeatures, ReadTheBuiltSceneAndTheRestStep) {
   EXPECT_EQ(f.fluid, 100);
   EXPECT_EQ(f.fluid_mean, 100);  // no inlet: the flow keeps its particles
   EXPECT_EQ(f.boundary, static_cast<double>(setup.boundary.size()));
+  EXPECT_EQ(f.boundary_fixed, f.boundary);  // no terrain: every wall is fixed
+  EXPECT_EQ(f.bed, 0);
   EXPECT_DOUBLE_EQ(f.duration, 0.5);
   const double h = setup.config.smoothing_length, dp = setup.config.dp;
   EXPECT_NEAR(f.neighbours, (h / dp) * (h / dp), 1e-12);
@@ -64,6 +66,7 @@ TEST(CostFeatures, InletsAddTheirBufferAndHalfOfWhatTheyDeliver) {
   const double opening = 0.1 / 0.02;
   const double buffer = opening * inlet_buffer_layers(setup.config);
   EXPECT_NEAR(f.fluid_mean, 100 + buffer + 0.5 * 250, 1e-6);
+  EXPECT_NEAR(f.fluid_peak, 100 + buffer + 250, 1e-6);
 }
 
 TEST(CostModel, PredictScalesWithFeaturesAndThreads) {
@@ -74,7 +77,7 @@ TEST(CostModel, PredictScalesWithFeaturesAndThreads) {
   CostFeatures f;
   f.dimensions = 2;
   f.fluid = f.fluid_mean = 1000;
-  f.boundary = 500;
+  f.boundary = f.boundary_fixed = 500;
   f.neighbours = 4;
   f.passes = 2;
   f.duration = 1;
@@ -104,7 +107,7 @@ TEST(CostModel, FitRecoversKnownCoefficients) {
           CostObservation o;
           o.features.dimensions = D;
           o.features.fluid = o.features.fluid_mean = fluid;
-          o.features.boundary = boundary;
+          o.features.boundary = o.features.boundary_fixed = boundary;
           o.features.neighbours = D == 2 ? 4 : 8;
           o.features.passes = 1 + (n++ % 2);
           o.features.duration = 2;
@@ -134,7 +137,7 @@ TEST(CostModel, FitDropsNegativeTermsAndKeepsThePriorWithoutData) {
     CostObservation o;
     o.features.dimensions = 2;
     o.features.fluid = o.features.fluid_mean = 1000 + boundary;
-    o.features.boundary = boundary;
+    o.features.boundary = o.features.boundary_fixed = boundary;
     o.features.neighbours = 4;
     o.features.passes = 1;
     o.features.duration = 1;
@@ -156,6 +159,68 @@ TEST(CostModel, FitDropsNegativeTermsAndKeepsThePriorWithoutData) {
   EXPECT_EQ(fit.three_d.a_fluid, 9e-9);
 }
 
+// On terrain the bed is laid near the flow: the boundary alive at most is the fixed walls and k_bed bed
+// particles per column of the flow's plan extent, fluid_peak^(2/3) in 3D (8 000 particles: 400), never more
+// than the bed the scene describes; the time per step follows it.
+TEST(CostModel, PredictsTheBedAliveNearTheFlow) {
+  CostModel m;
+  m.three_d = {1.0, 0.0, 1e-8, 0.0};
+  m.bed_per_flow_column = 20;
+  CostFeatures f;
+  f.dimensions = 3;
+  f.fluid = f.fluid_mean = 4000;
+  f.fluid_peak = 8000;  // an inlet delivers as much again
+  f.boundary_fixed = 1000;
+  f.bed = 1e6;
+  f.boundary = f.boundary_fixed + f.bed;
+  f.duration = 1;
+  f.dt0 = 1e-2;
+  const CostPrediction p = m.predict(f, 1);
+  EXPECT_EQ(p.particles, 4000 + 1001000);
+  EXPECT_EQ(p.fluid_peak, 8000);
+  EXPECT_NEAR(p.boundary_peak, 1000 + 20 * 400, 1e-9);
+  EXPECT_NEAR(p.seconds_per_step, 1e-8 * 9000, 1e-15);
+  f.bed = 3000;  // a bed smaller than the flow's reach: all of it
+  EXPECT_EQ(m.predict(f, 1).boundary_peak, 4000);
+}
+
+// k_bed is fitted to the measured peaks (geometric mean of bed peak over fluid_peak^(2/3)), and the time per
+// step on the measured peak, not on every wall particle described: runs made by a known model with k_bed = 25
+// and b = 2e-8 come back to it.
+TEST(CostModel, FitTakesTheBedPeakFromTheRuns) {
+  CostModel truth;
+  truth.three_d = {1.2, 2e-7, 2e-8, 1e-4};
+  truth.bed_per_flow_column = 25;
+  std::vector<CostObservation> runs;
+  for (double size : {100.0, 400.0, 1600.0, 6400.0}) {
+    CostObservation o;
+    o.features.dimensions = 3;
+    o.features.fluid = o.features.fluid_mean = o.features.fluid_peak = 3 * size;
+    o.features.boundary_fixed = size < 1000 ? 0.0 : 5000.0;  // structures on some
+    o.features.bed = 500 * size;
+    o.features.boundary = o.features.boundary_fixed + o.features.bed;
+    o.features.neighbours = 3.375;
+    o.features.passes = 2;
+    o.features.duration = 10;
+    o.features.dt0 = 1e-3;
+    const CostPrediction p = truth.predict(o.features, 1);
+    o.steps = p.steps;
+    o.wall_seconds = p.seconds;
+    o.boundary_peak = p.boundary_peak;
+    runs.push_back(o);
+  }
+  CostModel prior;
+  prior.bed_per_flow_column = 1;
+  const CostModel fit = fit_cost_model(runs, prior);
+  EXPECT_NEAR(fit.bed_per_flow_column, 25, 1e-9);
+  EXPECT_NEAR(fit.three_d.a_fluid, 2e-7, 1e-6 * 2e-7);
+  EXPECT_NEAR(fit.three_d.b_boundary, 2e-8, 1e-6 * 2e-8);
+  EXPECT_NEAR(fit.three_d.c_step, 1e-4, 1e-6 * 1e-4);
+  // Without measured peaks (runs stored before particles.boundary_peak) k_bed keeps the prior's.
+  for (auto& r : runs) r.boundary_peak = 0;
+  EXPECT_EQ(fit_cost_model(runs, prior).bed_per_flow_column, 1);
+}
+
 TEST(CostModel, ObservationFromStoredMetrics) {
   const json m = {{"status", "completed"}, {"dimensions", 3}, {"steps", 1234}, {"wall_time_s", 56.5}, {"threads", 2},
                   {"scene", "flume/C0"},
@@ -170,6 +235,20 @@ TEST(CostModel, ObservationFromStoredMetrics) {
   EXPECT_EQ(o.steps, 1234);
   EXPECT_EQ(o.wall_seconds, 56.5);
   EXPECT_EQ(o.threads, 2);
+  // Stored before the bed was laid near the flow: every boundary particle fixed, no peak.
+  EXPECT_EQ(o.features.boundary_fixed, 12000);
+  EXPECT_EQ(o.features.bed, 0);
+  EXPECT_EQ(o.boundary_peak, 0);
+  json terrain = m;
+  terrain["cost_features"]["boundary_fixed"] = 2000;
+  terrain["cost_features"]["bed"] = 10000;
+  terrain["cost_features"]["fluid_peak"] = 500;
+  terrain["particles"] = {{"boundary", 12000}, {"boundary_peak", 3500}};
+  ASSERT_TRUE(cost_observation_from_metrics(terrain.dump(), o));
+  EXPECT_EQ(o.features.boundary_fixed, 2000);
+  EXPECT_EQ(o.features.bed, 10000);
+  EXPECT_EQ(o.features.fluid_peak, 500);
+  EXPECT_EQ(o.boundary_peak, 3500);
   json stopped = m;
   stopped["status"] = "stopped";  // ran only part of its duration
   EXPECT_FALSE(cost_observation_from_metrics(stopped.dump(), o));

@@ -206,8 +206,9 @@ TEST(RunTradeoff, LadderIsStoredReusedAndReported) {
     EXPECT_GT(r.levels[k].steps, 0);
     EXPECT_GT(r.levels[k].wall_seconds, 0);
     EXPECT_GT(r.levels[k].predicted_seconds, 0);
-    if (std::ofstream("/proc/self/clear_refs"))  // the peak is the level's own only where it can be reset
+    if (std::ofstream("/proc/self/clear_refs")) {  // the peak is the level's own only where it can be reset
       EXPECT_GT(r.levels[k].peak_memory_mb, 0);
+    }
     EXPECT_FALSE(r.levels[k].reused);
   }
   EXPECT_EQ(r.levels[3].option, "numerics.kernel=cubic");
@@ -266,6 +267,8 @@ TEST(RunTradeoff, PredictOnlyPricesEveryLevelAndRunsNothing) {
     EXPECT_EQ(l.status, "not run");
     EXPECT_NEAR(l.fluid, std::pow(0.2 / l.dp, 2), 0.5);
     EXPECT_GT(l.boundary, 0);
+    EXPECT_EQ(l.predicted_boundary_peak, l.boundary);  // no terrain: every wall is alive
+    EXPECT_EQ(l.predicted_fluid_peak, l.fluid);
     EXPECT_GT(l.predicted_steps, 0);
     EXPECT_EQ(l.steps, 0);
   }

@@ -4,12 +4,14 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
+#include "runout/scenarios/cost_model.hpp"
 #include "runout/scenarios/run.hpp"
 #include "runout/scenarios/scene.hpp"
 #include "runout/terrain/raster.hpp"
@@ -96,10 +98,14 @@ TEST(BedWalls, NearTheFlowGivesTheRunOfTheWholeBedWithAFractionOfItsParticles) {
   EXPECT_GT(near["particles"]["wall_rebuilds"].get<long>(), 1);
 
   // Everything else to the bit: the same bed particles meet the flow in the same order.
+  // The cost features say how the bed is laid: near the flow it is all `bed`, laid whole all fixed walls.
+  EXPECT_EQ(near["cost_features"]["bed"].get<double>(), whole["cost_features"]["boundary_fixed"].get<double>());
   for (json* m : {&near, &whole}) {
     for (const char* k : {"wall_time_s", "particle_steps_per_s"}) m->erase(k);
     (*m)["particles"].erase("boundary_peak");
     (*m)["particles"].erase("wall_rebuilds");
+    (*m)["cost_features"].erase("bed");
+    (*m)["cost_features"].erase("boundary_fixed");
   }
   EXPECT_EQ(near.dump(2), whole.dump(2));
   for (const auto& e : fs::directory_iterator(plane.dir / "all" / "series")) {
@@ -150,4 +156,22 @@ TEST(BedWalls, AnUnknownWallsChoiceIsRefusedNamingTheField) {
     EXPECT_EQ(e.field, "terrain.walls");
     EXPECT_NE(std::string(e.what()).find("near_flow"), std::string::npos) << e.what();
   }
+}
+
+// The cost model's features of a terrain scene: the bed laid near the flow counts apart from the fixed walls
+// (the prediction of what is alive reads it; the 4 x 6 x 1 m release is 192 particles at dp 0.5).
+TEST(BedWalls, CostFeaturesCountTheBedApartFromTheFixedWalls) {
+  const Plane plane;
+  const CostFeatures near = cost_features(parse_scene(plane.scene("near_flow").dump(), plane.dir));
+  const CostFeatures whole = cost_features(parse_scene(plane.scene("all").dump(), plane.dir));
+  EXPECT_EQ(near.fluid, 192);
+  EXPECT_EQ(near.fluid_peak, 192);
+  EXPECT_EQ(near.boundary, whole.boundary);
+  EXPECT_EQ(near.boundary, near.boundary_fixed + near.bed);
+  EXPECT_GT(near.bed, 0);
+  EXPECT_EQ(whole.bed, 0);  // laid whole at the start: fixed
+  const CostModel model = CostModel::calibrated();
+  EXPECT_EQ(model.predict(whole, 1).boundary_peak, whole.boundary);
+  EXPECT_EQ(model.predict(near, 1).boundary_peak,
+            near.boundary_fixed + std::min(near.bed, model.bed_per_flow_column * std::pow(192.0, 2.0 / 3.0)));
 }

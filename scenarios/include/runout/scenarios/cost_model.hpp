@@ -9,8 +9,16 @@
 //
 // fluid_mean is the flow particles averaged over the run (inlets add theirs as they enter), (h/dp)^D scales
 // the neighbours each one visits, passes is 2 when a material carries a stress (velocity gradient, then
-// stress divergence) and 1 for inviscid water; boundary is every boundary particle (their cell sorting is
-// per step; only those next to the flow do pair work, which the fluid term carries). k_D takes up what
+// stress divergence) and 1 for inviscid water; boundary is the boundary particles alive at most: the fixed
+// walls, and on terrain the bed near the flow, predicted as
+//
+//   bed alive      = min(bed, k_bed * fluid_peak^((D-1)/D))
+//
+// the bed is laid a few layers deep under and around the wetted area, and a flow whose shape does not change
+// with dp wets a plan area of fluid_peak^((D-1)/D) columns of dp^(D-1) times a constant of its spreading
+// (halve dp: 8 times the particles, 4 times the columns). k_bed is fitted to the runs'
+// particles.boundary_peak (their cell sorting is per step; only those next to the flow do pair work, which
+// the fluid term carries). k_D takes up what
 // the rest state does not see (flow speed in the acoustic limit, the force limit of impacts). A run of a few
 // dozen particles gains little from a second thread (its step is mostly fork-join overhead), hence the
 // speed-up saturating in the fluid count; terrain flows of a hundred or more already gain 1.5x (their wall
@@ -27,7 +35,10 @@ struct CostFeatures {
   int dimensions = 3;
   double fluid = 0;        // flow particles at the start
   double fluid_mean = 0;   // averaged over the run (with inlets' inflow)
-  double boundary = 0;
+  double fluid_peak = 0;   // at most at once: with all an inlet delivers
+  double boundary = 0;     // every boundary particle the scene describes: boundary_fixed + bed
+  double boundary_fixed = 0;  // always alive: walls, structures, a terrain laid whole
+  double bed = 0;          // a terrain's bed laid only near the flow (the engine's wall source): all it can lay
   double neighbours = 0;   // (h/dp)^D
   double passes = 1;       // 1 inviscid, 2 with a stress term
   double duration = 0;     // [s]
@@ -43,7 +54,9 @@ struct CostCoefficients {
 };
 
 struct CostPrediction {
-  double particles = 0;   // fluid + boundary at the start
+  double particles = 0;   // fluid + boundary the scene describes
+  double fluid_peak = 0;      // flow particles at most at once
+  double boundary_peak = 0;   // boundary particles alive at most at once (fixed + bed near the flow)
   double steps = 0;
   double seconds_per_step = 0;
   double seconds = 0;     // wall-clock
@@ -54,7 +67,9 @@ struct CostModel {
   CostCoefficients two_d, three_d;
   double parallel_efficiency = 0.9;     // e: of each thread after the first, for a large run
   double parallel_half_fluid = 380;     // N_half: the fluid count at which a thread gives half of e
+  double bed_per_flow_column = 0;       // k_bed: bed particles alive at most per fluid_peak^((D-1)/D)
   double speedup(const CostFeatures& f, int threads) const;
+  double boundary_peak(const CostFeatures& f) const;
   // The coefficients fitted on this project's measurements (the figures and the command: docs/tradeoff.md).
   static CostModel calibrated();
   CostPrediction predict(const CostFeatures& f, int threads) const;
@@ -65,12 +80,15 @@ struct CostObservation {
   CostFeatures features;
   double steps = 0;
   double wall_seconds = 0;
+  double boundary_peak = 0;  // measured (particles.boundary_peak); 0 when not stored
   int threads = 1;
   std::string label;
 };
 
 // Least squares on relative error, per dimension (dimensions with fewer than two observations keep `prior`'s
-// coefficients); a negative coefficient is dropped and the rest refitted.
+// coefficients); a negative coefficient is dropped and the rest refitted. The time per step is fitted on the
+// measured boundary peak where a run has one; k_bed is the geometric mean of the measured bed peak over
+// fluid_peak^((D-1)/D) on the runs with a bed (the prior's without one).
 CostModel fit_cost_model(const std::vector<CostObservation>& runs, const CostModel& prior = CostModel::calibrated());
 
 // The features and measured cost of a stored run, from its metrics.json text ("cost_features", "steps",

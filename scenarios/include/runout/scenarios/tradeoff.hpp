@@ -47,7 +47,9 @@ struct TradeoffLevel {
   bool reused = false;         // already in the store
   double fluid = 0, boundary = 0, steps = 0, wall_seconds = 0, particle_steps_per_s = 0, peak_memory_mb = 0;
   double build_seconds = 0;  // building the scene (DEM, corridor, particles), before the run's wall time
+  double boundary_peak = 0;   // wall particles alive at most at once (measured)
   double predicted_steps = 0, predicted_seconds = 0;  // the cost model, before the run
+  double predicted_fluid_peak = 0, predicted_boundary_peak = 0;  // particles at most at once, predicted
   std::map<std::string, double> metrics;              // flattened, as stored
 };
 
