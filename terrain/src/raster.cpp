@@ -29,28 +29,33 @@ namespace fs = std::filesystem;
 // ---------------------------------------------------------------------------------------------------------
 // Grid::sample
 
-double Grid::sample(double x, double y) const {
-  if (nx <= 0 || ny <= 0 || !(dx > 0.0) || !(dy > 0.0)) return std::numeric_limits<double>::quiet_NaN();
-  if (!(x >= x0 && x <= x1() && y <= y0 && y >= y1())) return std::numeric_limits<double>::quiet_NaN();
+bool Grid::stencil(double x, double y, Stencil& s) const {
+  s.count = 0;
+  if (nx <= 0 || ny <= 0 || !(dx > 0.0) || !(dy > 0.0)) return false;
+  if (!(x >= x0 && x <= x1() && y <= y0 && y >= y1())) return false;
   // Continuous cell-centre coordinates, clamped so the outer half cell takes the edge cell's value.
   const double fi = std::clamp((x - x0) / dx - 0.5, 0.0, static_cast<double>(nx - 1));
   const double fj = std::clamp((y0 - y) / dy - 0.5, 0.0, static_cast<double>(ny - 1));
-  int i0 = static_cast<int>(std::floor(fi));
-  int j0 = static_cast<int>(std::floor(fj));
-  i0 = std::clamp(i0, 0, std::max(0, nx - 2));
-  j0 = std::clamp(j0, 0, std::max(0, ny - 2));
-  const int i1 = std::min(i0 + 1, nx - 1);
-  const int j1 = std::min(j0 + 1, ny - 1);
+  const int i0 = std::clamp(static_cast<int>(std::floor(fi)), 0, std::max(0, nx - 2));
+  const int j0 = std::clamp(static_cast<int>(std::floor(fj)), 0, std::max(0, ny - 2));
+  const int i1 = std::min(i0 + 1, nx - 1), j1 = std::min(j0 + 1, ny - 1);
   const double tx = fi - i0, ty = fj - j0;
   const double w[4] = {(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty};
-  const float v[4] = {at(i0, j0), at(i1, j0), at(i0, j1), at(i1, j1)};
+  const int ci[4] = {i0, i1, i0, i1}, cj[4] = {j0, j0, j1, j1};
+  // A cell with zero weight (exactly on a centre line, or a grid one cell wide) is not part of the stencil.
+  for (int k = 0; k < 4; ++k)
+    if (w[k] != 0.0) s.i[s.count] = ci[k], s.j[s.count] = cj[k], s.weight[s.count++] = w[k];
+  return true;
+}
+
+double Grid::sample(double x, double y) const {
+  Stencil s;
+  if (!stencil(x, y, s)) return std::numeric_limits<double>::quiet_NaN();
   double sum = 0.0;
-  for (int k = 0; k < 4; ++k) {
-    // A nodata cell poisons the sample; a cell with zero weight (exactly on a centre line, or a grid one cell
-    // wide) does not take part in the value and so is not consulted either.
-    if (w[k] == 0.0) continue;
-    if (std::isnan(v[k])) return std::numeric_limits<double>::quiet_NaN();
-    sum += w[k] * v[k];
+  for (int k = 0; k < s.count; ++k) {
+    const float v = at(s.i[k], s.j[k]);
+    if (std::isnan(v)) return std::numeric_limits<double>::quiet_NaN();  // a nodata cell poisons the sample
+    sum += s.weight[k] * v;
   }
   return sum;
 }

@@ -431,3 +431,44 @@ TEST(TerrainInputs, BadInputsAreRefusedNamingTheField) {
     }
   }
 }
+
+// The leak check at steps of the column lattice. The bed and the walls are columns of particles at dp, the
+// first layer's centres dp/2 under each column's top. A particle resting beside a step (on the low columns,
+// short of the high columns' line) is where the flow may be, though it is under the surface interpolated
+// across the step; one that has crossed the high columns' line below their first layer has leaked. A hand-made
+// model, dp = 1 m, origin 0: the bed is 0 for columns i < 5 and 6 m for i >= 5 (a cut face, centre line
+// x = 5.5); a wall on rows j >= 5 (y < 5) of columns 12-17 has its top at 2 m for i < 15 and 5 m from i = 15
+// (a wall whose top follows the ground; step line x = 15.5).
+TEST(TerrainLeakCheck, ARestBesideAStepIsNoLeakACrossingIs) {
+  TerrainModel m;
+  m.dp = 1.0;
+  m.bed = Grid(20, 10, 0.0, 10.0, 1.0, 1.0, "", 0.0f);
+  for (int j = 0; j < 10; ++j)
+    for (int i = 5; i < 10; ++i) m.bed.at(i, j) = 6.0f;
+  m.wall_top = m.bed.like(Grid::nodata);
+  m.wall_owner.assign(m.bed.values.size(), -1);
+  StructureInfo wall;
+  wall.name = "Wall";
+  m.structures.push_back(wall);
+  for (int j = 5; j < 10; ++j)
+    for (int i = 12; i < 18; ++i) {
+      m.wall_top.at(i, j) = i < 15 ? 2.0f : 5.0f;
+      m.wall_owner[static_cast<size_t>(j) * 20 + i] = 0;
+    }
+  // Beside the cut face, 0.7 m above the low bed, 0.6 and 0.3 dp short of the face's column line: the old
+  // check (1 dp under the interpolated surface, 2.4 and 4.2 m there) took both for leaks.
+  EXPECT_EQ(m.misplaced(Vec<3>(4.9, 7.5, 0.7)), "");
+  EXPECT_EQ(m.misplaced(Vec<3>(5.2, 7.5, 0.7)), "");
+  // Past the face's line, more than dp under the high columns' top: between their first-layer particles.
+  EXPECT_NE(m.misplaced(Vec<3>(5.7, 7.5, 0.7)).find("below the terrain"), std::string::npos);
+  // Under the low bed by more than dp, anywhere.
+  EXPECT_NE(m.misplaced(Vec<3>(2.0, 7.5, -1.2)).find("below the terrain"), std::string::npos);
+  // On the wall's low part beside its step, 0.8 m above it: no leak (the old check, wall top 5 m in the
+  // step column's cell, took it for one).
+  EXPECT_EQ(m.misplaced(Vec<3>(15.2, 2.5, 2.8)), "");
+  // Past the step's line under the high part, and deep inside the low part: inside the wall.
+  EXPECT_NE(m.misplaced(Vec<3>(15.8, 2.5, 2.8)).find("inside the wall of 'Wall'"), std::string::npos);
+  EXPECT_NE(m.misplaced(Vec<3>(13.5, 2.5, 0.5)).find("inside the wall of 'Wall'"), std::string::npos);
+  // Short of the wall's outer column line, on the bed beside it: not inside.
+  EXPECT_EQ(m.misplaced(Vec<3>(11.8, 2.5, 0.5)), "");
+}

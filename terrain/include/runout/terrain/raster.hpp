@@ -55,6 +55,15 @@ struct Grid {
   // Bilinear interpolation between cell centres (clamped to the outer half cell). NaN outside the grid or
   // where any of the four cells is nodata.
   double sample(double x, double y) const;
+
+  // The cells whose centres surround a map point: those `sample` weighs, up to four (fewer on a centre line
+  // or at the edge). False outside the grid.
+  struct Stencil {
+    int count = 0;
+    int i[4], j[4];
+    double weight[4];
+  };
+  bool stencil(double x, double y, Stencil& s) const;
 };
 
 struct DemOptions {
