@@ -82,13 +82,14 @@ bool TerrainModel::off_corridor(const Vec<3>& p) const {
   return true;
 }
 
-// Past the first layer of wall particles: more than dp under the lowest of the column tops around p (the
-// cells bilinear interpolation weighs), not under the interpolated surface. The wall is a lattice of columns;
-// beside a step (a cut face, a bank, a wall whose top follows the ground) the interpolated surface runs through
-// the open corner at the step's foot, and a particle resting there, 0.6 dp from the face, was taken for a leak
-// (flume C4 and C6, Jacksboro G7 at Dam1: docs/design.md). Under the lowest top by dp it has passed between
-// first-layer particles, whose centres are at top - dp/2; past a face's column line, the high columns alone
-// surround it. A wall counts only where all the columns around p are wall.
+// Past the first layer of wall particles. The bed and the walls are columns at dp, each column's first-layer
+// centre dp/2 under its top. Under the bed: more than dp under the lowest of the column tops around p (the
+// cells bilinear interpolation weighs), not under the interpolated surface, which beside a step (a cut face,
+// a bank) runs through the open corner at the step's foot: a particle resting there, 0.6 dp from the face, was
+// taken for a leak (flume C6; docs/design.md). Past a face's column line only the high columns surround p.
+// Inside a wall: in a column all of whose four neighbours are wall (past the face columns, the wall's first
+// layer) and more than dp under the lowest wall top around p, so a wall whose top steps (following the
+// ground) does not count a particle resting on its low part beside the step (flume C4).
 std::string TerrainModel::misplaced(const Vec<3>& p) const {
   const double mx = p[0] + origin_x, my = p[1] + origin_y;
   int i, j;
@@ -103,24 +104,20 @@ std::string TerrainModel::misplaced(const Vec<3>& p) const {
   Grid::Stencil around;
   bed.stencil(mx, my, around);
   double lowest_bed = b, lowest_top = std::numeric_limits<double>::infinity();
-  bool all_wall = !wall_top.values.empty() && around.count > 0;
   for (int k = 0; k < around.count; ++k) {
     const float z = bed.at(around.i[k], around.j[k]);
     if (!std::isnan(z)) lowest_bed = std::min(lowest_bed, static_cast<double>(z));
-    const float top = all_wall ? wall_top.at(around.i[k], around.j[k]) : Grid::nodata;
-    all_wall = all_wall && !std::isnan(top);
-    if (all_wall) lowest_top = std::min(lowest_top, static_cast<double>(top));
+    const float top = wall_top.values.empty() ? Grid::nodata : wall_top.at(around.i[k], around.j[k]);
+    if (!std::isnan(top)) lowest_top = std::min(lowest_top, static_cast<double>(top));
   }
   if (p[2] < lowest_bed - dp) {
     s << "is below the terrain at map " << point(mx, my) << ": z = " << p[2] << " m, ground " << b << " m";
     return s.str();
   }
-  if (all_wall && p[2] < lowest_top - dp) {
-    const size_t c = static_cast<size_t>(j) * bed.nx + i;
-    const int owner = wall_owner[c] >= 0 ? wall_owner[c]
-                                          : wall_owner[static_cast<size_t>(around.j[0]) * bed.nx + around.i[0]];
-    s << "is inside the wall of '" << structures[owner].name << "' at map " << point(mx, my) << ", z = " << p[2]
-      << " m";
+  const size_t c = static_cast<size_t>(j) * bed.nx + i;
+  if (!wall_interior.empty() && wall_interior[c] && p[2] < lowest_top - dp) {
+    s << "is inside the wall of '" << structures[wall_owner[c]].name << "' at map " << point(mx, my)
+      << ", z = " << p[2] << " m";
     return s.str();
   }
   return {};

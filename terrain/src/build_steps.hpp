@@ -56,7 +56,7 @@ std::vector<int> structure_owners(const TerrainSpec& spec, const std::vector<Foo
 
 // m.structures, with the bed regraded (deposition areas) and excavated (basins).
 void regrade_and_excavate(TerrainModel& m, const TerrainSpec& spec, const std::vector<int>& owner);
-// m.wall_top, m.wall_owner and the structures' wall tags, crests and built heights.
+// m.wall_top, m.wall_owner, m.wall_interior and the structures' wall tags, crests and built heights.
 void build_walls(TerrainModel& m, const TerrainSpec& spec, const std::vector<Footprint>& feet,
                  const std::vector<int>& owner);
 // The structures' storage capacities and flow normals.

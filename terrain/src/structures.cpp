@@ -346,6 +346,14 @@ void build_walls(TerrainModel& m, const TerrainSpec& spec, const std::vector<Foo
     if (s.kind == StructureKind::check_dam) build_dam_wall(m, s, static_cast<int>(k), owner);
     else build_basin_walls(m, s, feet[k], static_cast<int>(k), owner);
   }
+  const int nx = bed.nx;
+  m.wall_interior.assign(bed.values.size(), 0);
+  for (int j = 1; j + 1 < bed.ny; ++j)
+    for (int i = 1; i + 1 < nx; ++i) {
+      const size_t c = column(bed, i, j);
+      m.wall_interior[c] = m.wall_owner[c] >= 0 && m.wall_owner[c - 1] >= 0 && m.wall_owner[c + 1] >= 0 &&
+                           m.wall_owner[c - nx] >= 0 && m.wall_owner[c + nx] >= 0;
+    }
 }
 
 void storage_capacities(TerrainModel& m, const TerrainSpec& spec, const std::vector<Footprint>& feet,

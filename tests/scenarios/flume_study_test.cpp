@@ -1,17 +1,18 @@
 // The C0-C7 study on the shipped flume (scenarios/flume/), at the sweep's draft fidelity with the scene's
-// numerics (the engine's granular default, the density floor with 10 % dilatancy, on DBC walls: the scene's
-// description says why). What a draft run can show, and nothing more:
+// numerics (the engine's granular defaults: extrapolated walls, the density floor with 10 % dilatancy). What a
+// draft run can show, and nothing more:
 //   - physical facts on every layout: the run completes, no particle leaks, mass is conserved, and the
 //     granular material keeps its bulk density (final rho/rho0: p50 within 2 %, p5 no lower than the floor's
 //     0.9; without the floor the draft C1 and C6 end at p50 0.51 and 0.47, p5 0.17);
-//   - the study's findings on the metrics the C6 ladder (docs/tradeoff.md) shows within 10 % of fine at draft,
-//     the inundated area and the runout, where the layouts differ by more than that: a retention basin shrinks
-//     both below C0 (by 30-37 % at draft), and the area below C1 with the deposition area ahead (C7, 30 %);
-//     friction-HBP runs shorter than plain HBP tuned to the same arrival (18 %).
-// Not asserted, because the ladder shows the metric unconverged at draft (docs/study.md lists each with its
-// numbers): the dam forces (-90 % from fine at draft, -51 % at standard), the outlet's peak discharge and
-// volume (+92 %, +68 %), the deposit depth (+156 %), and the higher basin wall's effect (C5 vs C4 differ by
-// 7-11 %, within the draft's 6-7 % error on area and runout).
+//   - the study's findings on the inundated area and the runout where the layouts differ by more than those
+//     metrics' error at draft (6.6 % and 7.9 % from fine on the C6 ladder on extrapolated walls,
+//     docs/tradeoff.md): a retention basin shrinks both below C0 (C4 by 13 % and 9 %, the runout's margin only
+//     just above its error; C5 by 31 % and 23 %), and the area below C1 with the deposition area ahead (C7,
+//     25 %).
+// Not asserted, because the ladder shows the metric unconverged at draft or the margin is inside the error
+// (docs/study.md lists each with its numbers): the dam forces, the outlet's peak discharge and volume, the
+// deposit depth, the higher basin wall's effect, and friction-HBP against plain HBP tuned to the same
+// arrival (on extrapolated walls their runouts differ by 2 %, 3.96 against 4.04 m at draft).
 // One test runs the whole sweep once (gtest_discover_tests runs each TEST in its own process, so splitting it
 // would run the sweep again per finding); each check is its own EXPECT with the numbers in its message.
 #include <gtest/gtest.h>
@@ -97,36 +98,10 @@ TEST(FlumeStudy, DraftSweepKeepsMassAndDensityAndShowsTheConvergedFindings) {
   EXPECT_LT(at("C5", runout), at("C0", runout)) << "higher-walled basin, runout";
   EXPECT_LT(at("C7", area), at("C1", area)) << "basin behind the deposition area, inundated area";
 
-  // Friction-HBP against plain HBP "tuned to the same arrival time" (SPEC.md) on the C1 layout: a constant
-  // tau_y chosen once so that the plain-HBP front reaches the Outlet when the friction-HBP one does (found by
-  // runs at 200-900 Pa, docs/study.md; the literal 1.3 kPa of the thesis' table stops on our 38 degree chute,
-  // see there). The tuning is checked here (within 10 %) before the runouts are compared (the deposit depths
-  // are not: at draft a deposit's depth is a few stacked particles, +156 % from fine on the C6 ladder).
-  constexpr double kTunedYieldStress = 750.0;  // Pa; 700 Pa arrives 10 % early, 800 Pa 12 % late
-  json hbp = json::parse(resolve_variant(sweep.base_json, sweep.variants.at(1), sweep.fidelity));
-  auto& mat = hbp["materials"][0];
-  mat["rheology"] = "hbp";
-  mat["yield_stress"] = kTunedYieldStress;
-  mat.erase("friction_angle");
-  mat.erase("cohesion");
-  StoreRunOptions o;
-  o.sweep = "flume-hbp";
-  o.variant = "C1-hbp";
-  o.fidelity = sweep.fidelity;
-  o.run.out_dir = tmp.path / "runs/C1-hbp";
-  const StoredRun plain = run_and_store(store, hbp.dump(), kFlume, o);
-  ASSERT_EQ(plain.status, "completed") << plain.error;
-  const auto h = store.metrics(plain.run_id);
-  const std::string t0 = "monitors.section.Outlet.arrival_time_s";
-  ASSERT_NEAR(h.at(t0), at("C1", t0), 0.1 * at("C1", t0)) << "plain HBP not tuned to the same arrival time";
-  EXPECT_LT(at("C1", runout), h.at(runout)) << "friction-HBP runout shorter than plain HBP";
-
   // The table, for docs/study.md.
   for (const auto& [variant, mv] : m)
     std::printf("%s: F_P1 %.2f N, F_P2 %.2f N, Q_out %.4f m3/s, area %.3f m2, runout %.3f m, deposit %.4f m\n",
                 variant.c_str(), mv.count(force_p1) ? mv.at(force_p1) : -1.0,
                 mv.count(force_p2) ? mv.at(force_p2) : -1.0, mv.at(outlet_q), mv.at(area), mv.at(runout),
                 mv.at("terrain.inundation.deposit_max_depth_m"));
-  std::printf("C1-hbp: t_0 %.3f s (C1 %.3f s), area %.3f m2, runout %.3f m, deposit %.4f m\n", h.at(t0),
-              at("C1", t0), h.at(area), h.at(runout), h.at("terrain.inundation.deposit_max_depth_m"));
 }

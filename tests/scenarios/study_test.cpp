@@ -1,5 +1,5 @@
 // Sweeps run and stored: every variant of a sweep runs once, lands in the run store under its manifest, and
-// is not run again when the sweep is repeated; a check dam on the flume holds back part of the flow.
+// is not run again when the sweep is repeated; a check dam on the flume keeps part of the flow from the outlet.
 // Uses the shipped C0-C7 flume (scenarios/flume/) at its draft dp (5 cm): about half a minute a run.
 #include <gtest/gtest.h>
 
@@ -68,15 +68,18 @@ TEST(Study, SweepRunsEachLayoutOnceStoresItAndACheckDamHoldsFlowBack) {
   const double released = c0.at("terrain.release_volume_m3");
   // The dam at P2 holds part of the flow upstream of it, so less passes the outlet section; nothing leaves
   // the flume without passing the outlet in C0. How much of C0's flow reaches the plain is the material's
-  // (with the density floor 42 % at this dp, 39 % at standard; docs/study.md), not this test's subject: it
+  // (on the granular defaults 0.018 m3 at this dp, 19 % of the release at standard; docs/study.md), not this test's subject: it
   // needs C0 to pass more than the 5 % of the release by which the dam must cut it.
   const double out0 = c0.at("monitors.section.Outlet.volume_passed_m3");
   const double out3 = c3.at("monitors.section.Outlet.volume_passed_m3");
   EXPECT_GT(out0, 0.05 * released) << "in C0 flow passes the outlet";
   EXPECT_LT(out3, out0 - 0.05 * released) << "C0 " << out0 << " m3, C3 " << out3 << " m3";
-  // What the dam holds upstream of its axis did not pass the outlet downstream of it.
+  // What the dam holds upstream of its axis did not pass the outlet downstream of it. How much that is needs a
+  // resolved dam: at this dp it is two particles tall and stores 3.5e-5 m3 under its crest (0.1 % of the
+  // release), and nothing rests on the 38 degree chute above it on extrapolated walls, so it holds nothing at
+  // the end here; at standard dp it holds 8.5 % of the release (docs/study.md). On DBC walls the layer creeping
+  // on the chute above it was counted as held. What it stops here rests between it and the outlet.
   const double held = c3.at("terrain.structures.check_dam.CD_P2.upstream_volume_m3");
-  EXPECT_GT(held, 0.05 * released);
   EXPECT_LE(held + out3, released * (1 + 1e-9));
   // The flow loads the dam (positive downstream force) and C0 has no such structure.
   EXPECT_GT(c3.at("monitors.structure_load.CD_P2.peak_force_n"), 0);

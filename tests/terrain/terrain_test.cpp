@@ -455,6 +455,9 @@ TEST(TerrainLeakCheck, ARestBesideAStepIsNoLeakACrossingIs) {
       m.wall_top.at(i, j) = i < 15 ? 2.0f : 5.0f;
       m.wall_owner[static_cast<size_t>(j) * 20 + i] = 0;
     }
+  m.wall_interior.assign(m.bed.values.size(), 0);  // as build_walls marks them: all four neighbours wall
+  for (int j = 6; j < 9; ++j)
+    for (int i = 13; i < 17; ++i) m.wall_interior[static_cast<size_t>(j) * 20 + i] = 1;
   // Beside the cut face, 0.7 m above the low bed, 0.6 and 0.3 dp short of the face's column line: the old
   // check (1 dp under the interpolated surface, 2.4 and 4.2 m there) took both for leaks.
   EXPECT_EQ(m.misplaced(Vec<3>(4.9, 7.5, 0.7)), "");
@@ -466,7 +469,9 @@ TEST(TerrainLeakCheck, ARestBesideAStepIsNoLeakACrossingIs) {
   // On the wall's low part beside its step, 0.8 m above it: no leak (the old check, wall top 5 m in the
   // step column's cell, took it for one).
   EXPECT_EQ(m.misplaced(Vec<3>(15.2, 2.5, 2.8)), "");
-  // Past the step's line under the high part, and deep inside the low part: inside the wall.
+  // In the wall's first column (its face layer), under its top: not yet past the first layer.
+  EXPECT_EQ(m.misplaced(Vec<3>(12.3, 2.5, 0.5)), "");
+  // Past the step's line under the high part, and in the low part's second column: inside the wall.
   EXPECT_NE(m.misplaced(Vec<3>(15.8, 2.5, 2.8)).find("inside the wall of 'Wall'"), std::string::npos);
   EXPECT_NE(m.misplaced(Vec<3>(13.5, 2.5, 0.5)).find("inside the wall of 'Wall'"), std::string::npos);
   // Short of the wall's outer column line, on the bed beside it: not inside.

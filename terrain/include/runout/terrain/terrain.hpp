@@ -147,10 +147,11 @@ struct TerrainModel {
   // Domain faces that lie on the DEM's edge (flow may leave there): [axis][low/high].
   std::array<std::array<bool, 2>, 2> open_faces{};
 
-  // Walls at dp spacing on the bed grid: top elevation (NaN where there is no wall) and owner index into
-  // `structures`.
+  // Walls at dp spacing on the bed grid: top elevation (NaN where there is no wall), owner index into
+  // `structures`, and whether the column is inside the wall (all four neighbours are wall too).
   Grid wall_top;
   std::vector<int> wall_owner;
+  std::vector<char> wall_interior;
 
   // Bed elevation at a local point (bilinear on `bed`), NaN off the corridor.
   double bed_at(double x, double y) const;
