@@ -67,9 +67,9 @@ TEST(Study, SweepRunsEachLayoutOnceStoresItAndACheckDamHoldsFlowBack) {
   EXPECT_DOUBLE_EQ(c0.at("terrain.release_volume_m3"), c3.at("terrain.release_volume_m3"));
   const double released = c0.at("terrain.release_volume_m3");
   // The dam at P2 holds part of the flow upstream of it, so less passes the outlet section; nothing leaves
-  // the flume without passing the outlet in C0. How much of C0's flow reaches the plain is the material's
-  // (on the granular defaults 0.018 m3 at this dp, 19 % of the release at standard; docs/study.md), not this test's subject: it
-  // needs C0 to pass more than the 5 % of the release by which the dam must cut it.
+  // the flume without passing the outlet in C0. How much of C0's flow reaches the plain is the material's (on
+  // the granular defaults 0.018 m3 at this dp, 19 % of the release at standard; docs/study.md), not this
+  // test's subject: it needs C0 to pass more than the 5 % of the release by which the dam must cut it.
   const double out0 = c0.at("monitors.section.Outlet.volume_passed_m3");
   const double out3 = c3.at("monitors.section.Outlet.volume_passed_m3");
   EXPECT_GT(out0, 0.05 * released) << "in C0 flow passes the outlet";
