@@ -9,7 +9,8 @@
 //     speed, which the project's 2D dam break holds to 10 % of Martin & Moyce's (tests/engine/dam_break_test.cpp:
 //     10 %, the spread between their two column sizes): 10 % of the measured time either way. The experiment's
 //     clock starts as its gate begins to rise, the simulated column is free at once, so the simulation may
-//     lead by a gate-opening time as well: the 2D comparison fits 12 ms for Martin & Moyce's 0.114 m column;
+//     lead by a gate-opening time as well: the converged 2D front leads Martin & Moyce's by about 0.22 in T,
+//     12 ms for their 0.114 m column (docs/validation.md, section 2);
 //     an opening time scales as the column's fall time sqrt(H/g), sqrt(0.55/0.114) = 2.2 times that here,
 //     26 ms. So t_sim - t_exp in [-(0.1 t_exp + 0.026 s), +0.1 t_exp].
 //  2. P1 and P2, the peak of the 10 ms (11-sample centred) moving average over the first impact: within 25 %.
