@@ -15,7 +15,8 @@
 //    the far wall at Z = 10.7), at the same T: the mean relative error. Its limit is built from two independent
 //    numbers, both computed below from the tables, none from this code:
 //    - the release: the experiment's column was not released at an instant. Lethe's Navier-Stokes VOF run of the
-//      same experiment (same data) needs a 0.175 delay in T; an exact instant-release solution that differs
+//      same experiment (same data) adds 0.175 to its T (examples/multiphysics/dam-break/dam-break-2d.py,
+//      `time_correction`, chaos-polymtl/lethe 129b71aa); an exact instant-release solution that differs
 //      from the experiment only by that delay has a mean relative error of 8.0 % over the points used here;
 //    - the experiment's scatter: Martin & Moyce's a = 1.125 in column against the a = 2.25 in one at the same T
 //      differ by 3.4 % on average (up to 9 %).
