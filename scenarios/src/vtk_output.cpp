@@ -75,6 +75,7 @@ struct ParticleColumns {
   std::vector<float> velocity;
   std::vector<float> density, pressure, viscosity;
   std::vector<int32_t> type, tag;  // type 0 flow, 1 wall; tag: the flow's material, the wall's boundary tag
+  std::vector<int32_t> id;         // the particle's stable id (the arrays are re-sorted by cell every step)
 
   size_t size() const { return density.size(); }
   // (x, 0, z) in 2D, as the scene's x-z plane.
@@ -86,6 +87,7 @@ struct ParticleColumns {
                                      moving && D == 3 ? static_cast<float>(p.vel[1][i]) : 0.f,
                                      moving ? static_cast<float>(p.vel[D - 1][i]) : 0.f});
     density.push_back(static_cast<float>(p.rho[i]));
+    id.push_back(i < p.id.size() ? static_cast<int32_t>(p.id[i]) : -1);
   }
 };
 
@@ -99,7 +101,7 @@ std::string polydata(AppendedFile& f, const ParticleColumns& c, bool float64_poi
     << "<PointData Scalars=\"pressure\" Vectors=\"velocity\">\n"
     << f.array("velocity", 3, c.velocity) << f.array("density", 1, c.density) << f.array("pressure", 1, c.pressure)
     << f.array("effective_viscosity", 1, c.viscosity) << f.array("type", 1, c.type)
-    << f.array("material_or_tag", 1, c.tag) << "</PointData>\n<Points>\n";
+    << f.array("material_or_tag", 1, c.tag) << f.array("id", 1, c.id) << "</PointData>\n<Points>\n";
   if (float64_points) o << f.array("Points", 3, c.points);
   else o << f.array("Points", 3, std::vector<float>(c.points.begin(), c.points.end()));
   o << "</Points>\n<Verts>\n" << f.array("connectivity", 1, connectivity) << f.array("offsets", 1, offsets)

@@ -147,6 +147,7 @@ void expect_frame_matches(const VtkFile& f, const Solver<D>& s, const double ori
   const auto mu = f.array<float>("effective_viscosity", "Float32");
   const auto type = f.array<int32_t>("type", "Int32");
   const auto mat = f.array<int32_t>("material_or_tag", "Int32");
+  const auto id = f.array<int32_t>("id", "Int32");
   const auto conn = f.array<int32_t>("connectivity", "Int32");
   const auto offs = f.array<int32_t>("offsets", "Int32");
   ASSERT_EQ(pts.size(), 3 * n);
@@ -171,6 +172,7 @@ void expect_frame_matches(const VtkFile& f, const Solver<D>& s, const double ori
     EXPECT_FLOAT_EQ(mu[i], static_cast<float>(s.fluid_effective_viscosity()[i]));
     EXPECT_EQ(type[i], 0);
     EXPECT_EQ(mat[i], fl.material[i]);
+    EXPECT_EQ(id[i], static_cast<int32_t>(fl.id[i]));  // the stable id that leak and NaN messages name
     EXPECT_EQ(conn[i], static_cast<int32_t>(i));
   }
 }
