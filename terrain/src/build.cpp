@@ -89,7 +89,11 @@ bool TerrainModel::off_corridor(const Vec<3>& p) const {
 // taken for a leak (flume C6; docs/design.md). Past a face's column line only the high columns surround p.
 // Inside a wall: in a column all of whose four neighbours are wall (past the face columns, the wall's first
 // layer) and more than dp under the lowest wall top around p, so a wall whose top steps (following the
-// ground) does not count a particle resting on its low part beside the step (flume C4).
+// ground) does not count a particle resting on its low part beside the step (flume C4). A wall's top is where
+// its particles end (whole layers from the bed), up to dp/2 under the nominal top, and all four columns around
+// p must be wall: a particle resting in the inner corner of a wall laid as a staircase (Jacksboro's Dam1 on
+// the grid's diagonal), 0.7 dp from three face particles, sits on the corner point of an interior column and
+// was taken for a leak.
 std::string TerrainModel::misplaced(const Vec<3>& p) const {
   const double mx = p[0] + origin_x, my = p[1] + origin_y;
   int i, j;
@@ -104,18 +108,23 @@ std::string TerrainModel::misplaced(const Vec<3>& p) const {
   Grid::Stencil around;
   bed.stencil(mx, my, around);
   double lowest_bed = b, lowest_top = std::numeric_limits<double>::infinity();
+  bool walled_around = around.count > 0;  // every column the stencil weighs (1-4) is wall
   for (int k = 0; k < around.count; ++k) {
     const float z = bed.at(around.i[k], around.j[k]);
     if (!std::isnan(z)) lowest_bed = std::min(lowest_bed, static_cast<double>(z));
-    const float top = wall_top.values.empty() ? Grid::nodata : wall_top.at(around.i[k], around.j[k]);
-    if (!std::isnan(top)) lowest_top = std::min(lowest_top, static_cast<double>(top));
+    // The wall as its particles stand (whole layers from the bed), not its nominal top.
+    const size_t ck = static_cast<size_t>(around.j[k]) * bed.nx + around.i[k];
+    if (const int n = detail::wall_count(*this, ck); n > 0)
+      lowest_top = std::min(lowest_top, static_cast<double>(bed.values[ck]) + n * dp);
+    else
+      walled_around = false;
   }
   if (p[2] < lowest_bed - dp) {
     s << "is below the terrain at map " << point(mx, my) << ": z = " << p[2] << " m, ground " << b << " m";
     return s.str();
   }
   const size_t c = static_cast<size_t>(j) * bed.nx + i;
-  if (!wall_interior.empty() && wall_interior[c] && p[2] < lowest_top - dp) {
+  if (!wall_interior.empty() && wall_interior[c] && walled_around && p[2] < lowest_top - dp) {
     s << "is inside the wall of '" << structures[wall_owner[c]].name << "' at map " << point(mx, my)
       << ", z = " << p[2] << " m";
     return s.str();

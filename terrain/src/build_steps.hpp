@@ -63,6 +63,10 @@ void build_walls(TerrainModel& m, const TerrainSpec& spec, const std::vector<Foo
 void storage_capacities(TerrainModel& m, const TerrainSpec& spec, const std::vector<Footprint>& feet,
                         const std::vector<int>& owner);
 
+// Wall particles column c carries from its bed up to its wall top (0 without a wall): whole layers, so their
+// top surface, bed + count dp, may stand up to dp/2 off wall_top (a dam's crest is one level along its axis).
+int wall_count(const TerrainModel& m, size_t c);
+
 // m.bed_layers: `layers` under each column and more on steep ground; m.boundary: the wall particles on top.
 // Throws when the walls and the release would pass max_particles.
 void lay_boundary_particles(TerrainModel& m, int layers, size_t release_columns, double release_depth,

@@ -29,14 +29,13 @@ std::vector<int> column_depths(const Grid& bed, int layers, double dp) {
   return depth_count;
 }
 
-// Wall particles a column carries from its bed up to its wall top (0 without a wall).
+}  // namespace
+
 int wall_count(const TerrainModel& m, size_t c) {
-  if (std::isnan(m.wall_top.values[c])) return 0;
+  if (m.wall_top.values.empty() || std::isnan(m.wall_top.values[c])) return 0;
   const double b = m.bed.values[c];  // in double, as the particles are placed
   return static_cast<int>(std::round((m.wall_top.values[c] - b) / m.dp));
 }
-
-}  // namespace
 
 void lay_boundary_particles(TerrainModel& m, int layers, size_t release_columns, double release_depth,
                             long max_particles) {

@@ -477,3 +477,41 @@ TEST(TerrainLeakCheck, ARestBesideAStepIsNoLeakACrossingIs) {
   // Short of the wall's outer column line, on the bed beside it: not inside.
   EXPECT_EQ(m.misplaced(Vec<3>(11.8, 2.5, 0.5)), "");
 }
+
+// A wall's particles are whole layers from the bed, so they may end up to dp/2 under its nominal top (a dam's
+// crest is one level along its axis while the ground under it varies: Jacksboro's Dam1 at dp 2 m, crest
+// 4.99 m over a column's bed, 2 particles laid, their top 1 m under the crest). And a wall on the grid's
+// diagonal is a staircase: a particle resting in an inner corner sits on an interior column's corner point.
+TEST(TerrainLeakCheck, AWallIsWhereItsParticlesEndNotAtItsNominalTop) {
+  TerrainModel m;
+  m.dp = 1.0;
+  m.bed = Grid(20, 10, 0.0, 10.0, 1.0, 1.0, "", 0.0f);
+  m.wall_top = m.bed.like(Grid::nodata);
+  m.wall_owner.assign(m.bed.values.size(), -1);
+  StructureInfo wall;
+  wall.name = "Dam";
+  m.structures.push_back(wall);
+  for (int j = 5; j < 10; ++j)
+    for (int i = 12; i < 18; ++i) {
+      m.wall_top.at(i, j) = 2.49f;  // round(2.49) = 2 layers: particles at 0.5 and 1.5, top surface 2.0
+      m.wall_owner[static_cast<size_t>(j) * 20 + i] = 0;
+    }
+  m.wall_interior.assign(m.bed.values.size(), 0);
+  for (int j = 6; j < 9; ++j)
+    for (int i = 13; i < 17; ++i) m.wall_interior[static_cast<size_t>(j) * 20 + i] = 1;
+  // In an interior column 1.2 m up: within the top layer (its centre 1.5), not past it; against the nominal
+  // top (2.49 - dp = 1.49) this was a leak.
+  EXPECT_EQ(m.misplaced(Vec<3>(14.5, 2.5, 1.2)), "");
+  // Under the top layer's reach (2.0 - dp): past the first layer, inside.
+  EXPECT_NE(m.misplaced(Vec<3>(14.5, 2.5, 0.8)).find("inside the wall of 'Dam'"), std::string::npos);
+
+  // A staircase: the corner column (12, 5) left open, so interior column (13, 6) (centre 13.5, 3.5) touches the
+  // pocket at its corner point (13, 4). Just inside (13, 6) at that corner, 0.8 m up: 0.7 dp from the pocket's
+  // three wall neighbours' face particles, in the first layer, not past it (Jacksboro Dam1, 45.17 s on two
+  // threads); the old check counted it, its own column being interior.
+  m.wall_top.at(12, 5) = Grid::nodata;
+  m.wall_owner[5 * 20 + 12] = -1;
+  EXPECT_EQ(m.misplaced(Vec<3>(13.05, 3.95, 0.8)), "");
+  // The same column's centre, with wall all around: inside.
+  EXPECT_NE(m.misplaced(Vec<3>(13.6, 3.4, 0.8)).find("inside the wall of 'Dam'"), std::string::npos);
+}
