@@ -83,17 +83,13 @@ bool TerrainModel::off_corridor(const Vec<3>& p) const {
 }
 
 // Past the first layer of wall particles. The bed and the walls are columns at dp, each column's first-layer
-// centre dp/2 under its top. Under the bed: more than dp under the lowest of the column tops around p (the
-// cells bilinear interpolation weighs), not under the interpolated surface, which beside a step (a cut face,
-// a bank) runs through the open corner at the step's foot: a particle resting there, 0.6 dp from the face, was
-// taken for a leak (flume C6; docs/design.md). Past a face's column line only the high columns surround p.
-// Inside a wall: in a column all of whose four neighbours are wall (past the face columns, the wall's first
-// layer) and more than dp under the lowest wall top around p, so a wall whose top steps (following the
-// ground) does not count a particle resting on its low part beside the step (flume C4). A wall's top is where
-// its particles end (whole layers from the bed), up to dp/2 under the nominal top, and all four columns around
-// p must be wall: a particle resting in the inner corner of a wall laid as a staircase (Jacksboro's Dam1 on
-// the grid's diagonal), 0.7 dp from three face particles, sits on the corner point of an interior column and
-// was taken for a leak.
+// centre dp/2 under the top its particles reach. Under the bed: more than dp under the lowest column top of
+// the cells bilinear interpolation weighs (the interpolated surface runs through the open corner at a step's
+// foot, where a particle may rest). Inside a wall: in a column whose four neighbours are wall (past the face
+// columns), with every column the stencil weighs wall (a staircase's inner corner touches an interior
+// column's corner point), and more than dp under the lowest top the wall particles there reach (a wall's
+// nominal top steps with the ground, and its particles stop up to dp/2 off it). Each rule once took a resting
+// particle for a leak: docs/design.md, "The leaks at steps were the leak check's".
 std::string TerrainModel::misplaced(const Vec<3>& p) const {
   const double mx = p[0] + origin_x, my = p[1] + origin_y;
   int i, j;
