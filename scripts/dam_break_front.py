@@ -5,8 +5,9 @@ time shift: the numbers of docs/validation.md, section 2 (the same formulas as t
     scripts/dam_break_front.py --a A [--until S] RUN_DIR [RUN_DIR ...]
 
 RUN_DIR is a `runout run` output of an n^2 = 2 column of width A metres (0.3 for dam_break_mm_2d.json, 1 for
-dam_break_1x2_2d.json, at any dp); dp is read from RUN_DIR/metrics.json. Front Z = (front_x + dp/2)/a, T = t sqrt(2g/a). Prints the mean and worst |relative error| at the
-experiments' T, and the lead: how much earlier in T the simulated front reached each measured position.
+dam_break_1x2_2d.json, at any dp); dp is read from RUN_DIR/metrics.json unless --dp is given. Front
+Z = (front_x + dp/2)/a, T = t sqrt(2g/a). Prints the mean and worst |relative error| at the experiments' T,
+and the lead: how much earlier in T the simulated front reached each measured position.
 Tables: PySPH pysph/examples/db_exp_data.py and Lethe's dam-break-2d.py (docs/validation-data.md, section 3).
 """
 import argparse
