@@ -48,4 +48,33 @@ void LoadFilter::add(real t, real force, real wetted_area) {
   if (reading_.mean_pressure > peak_pressure_) peak_pressure_ = reading_.mean_pressure, peak_pressure_time_ = centre;
 }
 
+void LoadFilter::save_state(StateWriter& out) const {
+  out.label("load_filter");
+  out.value(window_), out.value(min_area_);
+  out.value<uint64_t>(history_.size());
+  for (const Cumulative& c : history_) out.value(c.t), out.value(c.impulse), out.value(c.area_time);
+  out.value(latest_t_), out.value(started_);
+  out.value(reading_.force), out.value(reading_.wetted_area), out.value(reading_.mean_pressure);
+  out.value(peak_force_), out.value(peak_force_time_), out.value(peak_pressure_), out.value(peak_pressure_time_);
+  out.value(peak_instant_);
+}
+
+void LoadFilter::load_state(StateReader& in) {
+  in.expect("load_filter");
+  in.value(window_), in.value(min_area_);
+  if (!(window_ > 0) || !(min_area_ >= 0)) in.fail("holds a window or minimum area out of range");
+  const auto n = in.value<uint64_t>();
+  if (n > (uint64_t{1} << 32)) in.fail("holds an impossible length");
+  history_.clear();
+  for (uint64_t k = 0; k < n; ++k) {
+    Cumulative c;
+    in.value(c.t), in.value(c.impulse), in.value(c.area_time);
+    history_.push_back(c);
+  }
+  in.value(latest_t_), in.value(started_);
+  in.value(reading_.force), in.value(reading_.wetted_area), in.value(reading_.mean_pressure);
+  in.value(peak_force_), in.value(peak_force_time_), in.value(peak_pressure_), in.value(peak_pressure_time_);
+  in.value(peak_instant_);
+}
+
 }  // namespace runout

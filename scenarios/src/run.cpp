@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "runout/engine/geometry.hpp"
+#include "runout/engine/state_io.hpp"
 #include "runout/scenarios/cost_model.hpp"
 #include "runout/scenarios/vtk_output.hpp"
 #include "runout/terrain/terrain.hpp"
@@ -141,6 +142,18 @@ class TerrainWatch {
   }
   size_t outflow_particles() const { return outflow_particles_; }
   const terrain::InundationGrid& grid() const { return grid_; }
+  void save_state(StateWriter& out) const {
+    out.label("terrain watch");
+    out.value(released_mass_), out.value(outflow_mass_), out.value(outflow_first_time_);
+    out.value(outflow_particles_), out.value(outflow_first_point_);
+    if (model_) grid_.save_state(out);
+  }
+  void load_state(StateReader& in) {
+    in.expect("terrain watch");
+    in.value(released_mass_), in.value(outflow_mass_), in.value(outflow_first_time_);
+    in.value(outflow_particles_), in.value(outflow_first_point_);
+    if (model_) grid_.load_state(in);
+  }
   // Fluid positions (local) and volumes at the last update.
   const std::vector<Vec<3>>& positions() const { return pos_; }
   const std::vector<real>& volumes() const { return vol_; }
@@ -357,6 +370,22 @@ class RunSeries {
     max_ke_excess_ = std::max(max_ke_excess_, e.kinetic - e.potential_released - e.inflow_kinetic);
   }
   real max_ke_excess() const { return max_ke_excess_; }
+  // The tables so far and each monitor's state.
+  void save_state(StateWriter& out) const {
+    out.label("series");
+    out.text(run_.str());
+    for (const auto& r : rows_) out.text(r.str());
+    out.value(max_ke_excess_);
+    for (const auto& mon : monitors_) mon->save_state(out);
+  }
+  void load_state(StateReader& in) {
+    in.expect("series");
+    run_.str(in.text());
+    run_.seekp(0, std::ios::end);
+    for (auto& r : rows_) r.str(in.text()), r.seekp(0, std::ios::end);
+    in.value(max_ke_excess_);
+    for (auto& mon : monitors_) mon->load_state(in);
+  }
   void write(const fs::path& dir) const {
     std::ostringstream prof;
     prof << std::setprecision(9) << "x,surface_height\n";
@@ -405,6 +434,20 @@ class Snapshots {
     writer_->write_frame(s);
     next_ += interval_;
   }
+  // The next frame's time and the frames written: a resumed run with snapshots adds to them (one without
+  // keeps its files and writes none).
+  void save_state(StateWriter& out) const {
+    out.label("snapshots");
+    out.value(next_);
+    out.values(writer_ ? writer_->times() : std::vector<double>{});
+  }
+  void load_state(StateReader& in) {
+    in.expect("snapshots");
+    in.value(next_);
+    std::vector<double> times;
+    in.values(times);
+    if (writer_) writer_->resume_after(std::move(times));
+  }
 
  private:
   std::optional<SnapshotWriter<D>> writer_;
@@ -436,48 +479,150 @@ class Progress {
   clock::time_point t0_, last_;
 };
 
-// Steps the solver to the scene's end: "completed", or "stopped" when opt.stop is set. Terrain runs check for
-// misplaced particles every 10 steps; monitors, run.csv and the inundation grid are sampled every
-// series_interval. Throws SimulationError when the run fails.
+// What the stepping loop carries from one step to the next besides the solver and the recorders.
+struct LoopState {
+  real next_sample = 0;
+  real rest_since = -1;       // simulated time since which every flow particle is slower than output.rest_speed
+  long particle_steps = 0;
+  double wall_before = 0;     // [s] wall time of the sessions before the checkpoint the run resumed from
+  size_t fluid_initial = 0;   // flow particles at the start
+  real resumed_from = -1;     // [s] simulated time of that checkpoint; -1: a fresh run
+  int sessions = 1;           // this one and those before it
+};
+
+// OUT/checkpoint.bin (RunOptions::checkpoint_interval): the scene it belongs to, then the solver's, the
+// recorders' and the loop's state. Written to a temporary name and renamed, so a kill while writing leaves the
+// previous checkpoint whole.
 template <int D>
-std::string step_to_end(const Scene& scene, const RunOptions& opt, Solver<D>& solver, RunSeries<D>& series,
-                        TerrainWatch<D>& watch, Progress& progress, long& particle_steps, real& ended_at_rest) {
+class Checkpoint {
+ public:
+  Checkpoint(const Scene& scene, const RunOptions& opt)
+      : scene_(scene), path_(opt.out_dir / "checkpoint.bin"), interval_(opt.checkpoint_interval), last_(0) {}
+  bool enabled() const { return interval_ > 0; }
+  bool due(double elapsed) const { return enabled() && elapsed - last_ >= interval_; }
+
+  struct Parts {
+    Solver<D>& solver;
+    RunSeries<D>& series;
+    TerrainWatch<D>& watch;
+    Snapshots<D>& snapshots;
+    LoopState& loop;
+  };
+
+  void save(const Parts& p, double elapsed) {
+    const fs::path tmp = path_.string() + ".tmp";
+    {
+      std::ofstream file(tmp, std::ios::binary);
+      StateWriter out(file);
+      out.label("runout checkpoint");
+      out.text(scene_.canonical_json);
+      p.solver.save_state(out);
+      p.series.save_state(out);
+      p.watch.save_state(out);
+      p.snapshots.save_state(out);
+      save_loop(out, p.loop, elapsed);
+      file.flush();
+      if (!file) throw std::runtime_error("cannot write the checkpoint '" + tmp.string() + "'");
+    }
+    fs::rename(tmp, path_);
+    last_ = elapsed;
+  }
+
+  // Restores the run from OUT/checkpoint.bin when it holds this scene; false when there is none. Throws
+  // std::runtime_error for a checkpoint of another scene or one this build cannot read.
+  bool load(const Parts& p) {
+    if (!enabled() || !fs::exists(path_)) return false;
+    std::ifstream file(path_, std::ios::binary);
+    StateReader in(file);
+    try {
+      in.expect("runout checkpoint");
+      if (in.text() != scene_.canonical_json)
+        throw std::runtime_error("it is of another scene (remove it, or run with another output directory)");
+      p.solver.load_state(in);
+      p.series.load_state(in);
+      p.watch.load_state(in);
+      p.snapshots.load_state(in);
+      load_loop(in, p.loop);
+    } catch (const std::runtime_error& e) {
+      throw std::runtime_error("cannot resume from '" + path_.string() + "': " + e.what());
+    }
+    return true;
+  }
+  void remove() const {
+    std::error_code ec;
+    fs::remove(path_, ec);
+  }
+
+ private:
+  static void save_loop(StateWriter& out, const LoopState& l, double elapsed) {
+    out.label("loop");
+    out.value(l.next_sample), out.value(l.rest_since), out.value(l.particle_steps);
+    out.value(l.wall_before + elapsed), out.value<uint64_t>(l.fluid_initial), out.value(l.sessions);
+  }
+  static void load_loop(StateReader& in, LoopState& l) {
+    in.expect("loop");
+    in.value(l.next_sample), in.value(l.rest_since), in.value(l.particle_steps), in.value(l.wall_before);
+    l.fluid_initial = in.value<uint64_t>();
+    l.sessions = in.value<int>() + 1;
+  }
+
+  const Scene& scene_;
+  fs::path path_;
+  double interval_, last_;
+};
+
+// The recorders' first samples, at the start of a fresh run.
+template <int D>
+void record_start(const Scene& scene, Solver<D>& solver, RunSeries<D>& series, TerrainWatch<D>& watch,
+                  Snapshots<D>& snapshots, LoopState& loop) {
   if (watch.active()) {
     watch.set_released_mass(static_cast<double>(solver.mass_balance().total_initial()));
     watch.check(solver, 0.0);
     watch.update(solver.fluid(), solver.materials(), solver.time());
   }
-  Snapshots<D> snapshots(scene, opt);
   snapshots.first(solver);
   series.sample(solver.last_step());
   series.sample_monitors();
-  real next_sample = scene.output.series_interval;
-  real rest_since = -1;  // simulated time since which every flow particle is slower than output.rest_speed
+  loop.next_sample = scene.output.series_interval;
+}
+
+// Steps the solver to the scene's end: "completed", or "stopped" when opt.stop is set (a checkpoint is written
+// then, when the run keeps them). Terrain runs check for misplaced particles every 10 steps; monitors, run.csv
+// and the inundation grid are sampled every series_interval. Throws SimulationError when the run fails.
+template <int D>
+std::string step_to_end(const Scene& scene, const RunOptions& opt, typename Checkpoint<D>::Parts p,
+                        Checkpoint<D>& checkpoint, Progress& progress, real& ended_at_rest) {
+  Solver<D>& solver = p.solver;
+  LoopState& loop = p.loop;
   while (solver.time() < scene.duration) {
-    if (opt.stop && opt.stop->load()) return "stopped";
-    particle_steps += static_cast<long>(solver.fluid().size());
+    if (opt.stop && opt.stop->load()) {
+      if (checkpoint.enabled()) checkpoint.save(p, progress.elapsed());
+      return "stopped";
+    }
+    loop.particle_steps += static_cast<long>(solver.fluid().size());
     const StepStats& st = solver.step();
     if (scene.output.rest_speed > 0) {
-      rest_since = st.max_speed < scene.output.rest_speed ? (rest_since < 0 ? solver.time() : rest_since) : -1;
-      if (rest_since >= 0 && solver.time() - rest_since >= scene.output.rest_time) {
+      loop.rest_since = st.max_speed < scene.output.rest_speed ? (loop.rest_since < 0 ? solver.time() : loop.rest_since) : -1;
+      if (loop.rest_since >= 0 && solver.time() - loop.rest_since >= scene.output.rest_time) {
         ended_at_rest = solver.time();
-        series.sample_monitors();
-        series.sample(st);
+        p.series.sample_monitors();
+        p.series.sample(st);
         break;
       }
     }
     // A particle moves well under dp in 10 steps (CFL), so it cannot cross a wall between two checks.
-    if (watch.active() && solver.steps() % 10 == 0) watch.check(solver, solver.time());
-    series.after_step();
-    if (solver.time() >= next_sample - 1e-12) {
-      series.sample_monitors();
-      if (watch.active()) watch.update(solver.fluid(), solver.materials(), solver.time());
-      series.sample(st);
-      series.track_energy();
-      next_sample += scene.output.series_interval;
+    if (p.watch.active() && solver.steps() % 10 == 0) p.watch.check(solver, solver.time());
+    p.series.after_step();
+    if (solver.time() >= loop.next_sample - 1e-12) {
+      p.series.sample_monitors();
+      if (p.watch.active()) p.watch.update(solver.fluid(), solver.materials(), solver.time());
+      p.series.sample(st);
+      p.series.track_energy();
+      loop.next_sample += scene.output.series_interval;
     }
-    snapshots.after_step(solver);
+    p.snapshots.after_step(solver);
     progress.during(solver, scene.duration);
+    if (checkpoint.due(progress.elapsed())) checkpoint.save(p, progress.elapsed());
   }
   return "completed";
 }
@@ -660,28 +805,39 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
   fs::create_directories(opt.out_dir / "series");
 
   Solver<D> solver(setup);
-  ParticleCounts counts{solver.fluid().size(), static_cast<size_t>(solver.boundary_described())};
   Progress progress(opt);
   TerrainWatch<D> watch(scene.terrain.get(), scene.output.inundation_threshold);
   RunSeries<D> series(scene, solver);
+  Snapshots<D> snapshots(scene, opt);
+  LoopState loop;
+  loop.fluid_initial = solver.fluid().size();
+  Checkpoint<D> checkpoint(scene, opt);
+  const typename Checkpoint<D>::Parts parts{solver, series, watch, snapshots, loop};
+  if (checkpoint.load(parts))
+    loop.resumed_from = solver.time();
+  else
+    record_start(scene, solver, series, watch, snapshots, loop);
+  ParticleCounts counts{loop.fluid_initial, static_cast<size_t>(solver.boundary_described())};
   RunSummary sum;
-  long particle_steps = 0;
+  sum.resumed_from = loop.resumed_from;
   try {
-    sum.status = step_to_end(scene, opt, solver, series, watch, progress, particle_steps, sum.ended_at_rest);
+    sum.status = step_to_end(scene, opt, parts, checkpoint, progress, sum.ended_at_rest);
   } catch (const SimulationError& e) {
     sum.status = "failed";
     sum.error = failure_message(e, solver);
     if (e.cause == SimulationError::Cause::leak) counts.leaked = e.leaked_particles;
   }
+  if (sum.status != "stopped") checkpoint.remove();
   if (watch.active()) watch.update(solver.fluid(), solver.materials(), solver.time());
-  sum.wall_seconds = progress.elapsed();
+  sum.wall_seconds = loop.wall_before + progress.elapsed();
   sum.steps = solver.steps();
   sum.simulated_time = solver.time();
-  sum.particle_steps_per_second = sum.wall_seconds > 0 ? particle_steps / sum.wall_seconds : 0;
+  sum.particle_steps_per_second = sum.wall_seconds > 0 ? loop.particle_steps / sum.wall_seconds : 0;
   progress.at_end(solver, scene.duration, sum.wall_seconds);
 
   series.write(opt.out_dir / "series");
   json m = run_metrics(scene, solver, sum, counts, series.max_ke_excess());
+  if (loop.resumed_from >= 0) m["resumed"] = {{"from_s", loop.resumed_from}, {"sessions", loop.sessions}};
   m["monitors"] = series.summaries();
   if (watch.active()) add_terrain_metrics(m, scene, watch, opt.out_dir, sum.status);
   sum.metrics_json = m.dump(2);
@@ -710,6 +866,18 @@ std::vector<std::pair<real, real>> surface_profile(const ParticleArrays<D>& flui
 
 template std::vector<std::pair<real, real>> surface_profile<2>(const ParticleArrays<2>&, real);
 template std::vector<std::pair<real, real>> surface_profile<3>(const ParticleArrays<3>&, real);
+
+bool has_checkpoint_of(const Scene& scene, const fs::path& out_dir) {
+  std::ifstream file(out_dir / "checkpoint.bin", std::ios::binary);
+  if (!file) return false;
+  try {
+    StateReader in(file);
+    in.expect("runout checkpoint");
+    return in.text() == scene.canonical_json;
+  } catch (const std::runtime_error&) {
+    return false;
+  }
+}
 
 RunSummary run_scene(const Scene& scene, const RunOptions& options) {
   return std::visit([&](const auto& setup) {

@@ -56,7 +56,9 @@ RunStore::RunRecord run_record(const Manifest& manifest, const std::string& scen
 RunStore::RunRecord execute_run(const std::string& resolved_json, const Manifest& manifest, const fs::path& base_dir,
                                 const StoreRunOptions& options, StoredRun& result) {
   const Scene scene = parse_scene(resolved_json, base_dir);
-  fs::remove_all(options.run.out_dir);  // a stale or half-written directory from an interrupted run
+  // A stale or half-written directory from an interrupted run goes, unless it holds a checkpoint to resume.
+  if (!(options.run.checkpoint_interval > 0 && has_checkpoint_of(scene, options.run.out_dir)))
+    fs::remove_all(options.run.out_dir);
   const RunSummary s = run_scene(scene, options.run);
   result.status = s.status;
   result.error = s.error;
@@ -111,6 +113,7 @@ SweepResult run_sweep(RunStore& store, const Sweep& sweep, const SweepOptions& o
       o.run.out_dir = options.out_root / sweep.name / v.name;
       o.run.threads = threads;
       o.run.stop = options.stop;
+      o.run.checkpoint_interval = options.checkpoint_interval;
       o.run.on_progress = [&, k](const RunProgress& p) {
         SweepEvent pe{SweepEvent::progress, sweep.variants[k].name, k, n, p, {}};
         emit(pe);

@@ -200,6 +200,12 @@ SnapshotWriter<D>::SnapshotWriter(const Scene& scene, fs::path dir) : dir_(std::
 }
 
 template <int D>
+void SnapshotWriter<D>::resume_after(std::vector<double> times) {
+  times_ = std::move(times);
+  write_index();
+}
+
+template <int D>
 void SnapshotWriter<D>::write_frame(const Solver<D>& s) {
   const auto& f = s.fluid();
   const auto& p = s.fluid_pressure();

@@ -20,6 +20,7 @@ struct RunArgs {
   FidelityArgs fidelity;
   bool snapshots = false, quiet = false, no_db = false;
   int threads = 0;
+  double checkpoint_every = 0;
 };
 
 // The scene that runs: as written, or resolved at --fidelity / --dp as a sweep resolves its layouts.
@@ -83,6 +84,7 @@ int run(const RunArgs& a) {
   opt.snapshots = a.snapshots;
   opt.threads = a.threads;
   opt.stop = &g_stop;
+  opt.checkpoint_interval = a.checkpoint_every;
   if (!a.quiet) opt.on_progress = [&](const RunProgress& p) { bar.update(p); };
   RunSummary s;
   try {
@@ -93,6 +95,9 @@ int run(const RunArgs& a) {
     return 1;
   }
   bar.finish();
+  if (s.resumed_from >= 0) spdlog::info("resumed from the checkpoint at t = {:.4g} s", s.resumed_from);
+  if (s.status == "stopped" && opt.checkpoint_interval > 0)
+    spdlog::info("state saved to {}: the same command resumes the run", (out / "checkpoint.bin").string());
   if (store) store_run(*store, a, resolved, s, out);
   if (s.status == "failed") {
     spdlog::error("run failed: {}", s.error);
@@ -116,6 +121,10 @@ Action add_run(CLI::App& app) {
   a->fidelity.add_to(run_cmd, "the scene as written");
   run_cmd->add_flag("--snapshots", a->snapshots, "Write particle snapshots (.vtp) under OUT/snapshots/");
   run_cmd->add_option("--threads,-j", a->threads, "OpenMP threads (default: all cores)")->check(CLI::Range(0, 1024));
+  run_cmd->add_option("--checkpoint-every", a->checkpoint_every,
+                      "Save the run's state to OUT/checkpoint.bin every SECONDS of wall time and when stopped; "
+                      "the same command resumes from it (default 0: no checkpoints)")
+      ->check(CLI::Range(0.0, 1e6));
   run_cmd->add_flag("--quiet,-q", a->quiet, "No progress bar");
   run_cmd->add_option("--db", a->db, "Run store (SQLite) the run is put in")->capture_default_str();
   run_cmd->add_flag("--no-db", a->no_db, "Do not store the run");

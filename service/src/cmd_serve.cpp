@@ -138,6 +138,9 @@ Action add_serve(CLI::App& app) {
   bounded(cmd, "--workers", o.workers, "Jobs run at once (0: queue only)", 0, 64);
   cmd->add_option("--threads-per-job", o.threads_per_job, "OpenMP threads per job (0: cores / workers)")
       ->check(CLI::Range(0, 1024));
+  bounded(cmd, "--checkpoint-every", o.checkpoint_interval,
+          "Seconds of wall time between a running job's checkpoints; a restarted service resumes the job from "
+          "its last one (0: a requeued job starts over)", 0.0, 1e6);
   cmd->add_option("--token-file", a->token_file, "File holding the bearer token that writes need, or several, one per line (else env RUNOUT_TOKEN)");
   add_limits(cmd, o);
   cmd->add_option("--runs", a->runs, "Job outputs go to RUNS/service/job-<id>")->capture_default_str();

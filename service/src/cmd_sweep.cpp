@@ -23,6 +23,7 @@ struct SweepArgs {
   FidelityArgs fidelity;
   double heartbeat_timeout = 60;
   int jobs = 1, threads = 0;
+  double checkpoint_every = 0;
   bool no_compare = false;
 };
 
@@ -142,6 +143,7 @@ int sweep(const SweepArgs& a) {
   opt.out_root = a.out;
   opt.jobs = a.jobs;
   opt.threads = a.threads;
+  opt.checkpoint_interval = a.checkpoint_every;
   opt.stop = &g_stop;
   ProgressLines progress(opt);
   opt.on_event = [&](const SweepEvent& e) { progress(e); };
@@ -180,6 +182,10 @@ Action add_sweep(CLI::App& app) {
   a->fidelity.add_to(cmd, "the sweep's");
   cmd->add_option("--jobs", a->jobs, "Runs at once (each gets the cores divided among the jobs)")->check(CLI::Range(1, 64));
   cmd->add_option("--threads,-j", a->threads, "OpenMP threads per run (default: cores / jobs)")->check(CLI::Range(0, 1024));
+  cmd->add_option("--checkpoint-every", a->checkpoint_every,
+                  "Save each run's state every SECONDS of wall time and when stopped; the same command resumes "
+                  "an interrupted run from it (default 0: no checkpoints)")
+      ->check(CLI::Range(0.0, 1e6));
   cmd->add_option("--db", a->db, "Run store (SQLite)")->capture_default_str();
   cmd->add_option("--out,-o", a->out, "Outputs go to OUT/<sweep>/<variant>")->capture_default_str();
   cmd->add_flag("--no-compare", a->no_compare, "Do not print the comparison at the end");

@@ -139,6 +139,7 @@ void Server::Impl::run_job(const Job& job) {
   o.run.out_dir = job.out_dir;
   o.run.threads = threads_per_job;
   o.run.stop = &flags->stop;
+  o.run.checkpoint_interval = opt.checkpoint_interval;
   auto last = Clock::now();
   std::optional<RunProgress> latest;
   o.run.on_progress = [&](const RunProgress& p) {
@@ -179,6 +180,10 @@ void Server::Impl::run_job(const Job& job) {
     std::lock_guard lock(mutex);
     running.erase(job.id);
     if (stopping && status == "cancelled" && !flags->cancel) status = "requeue";
+  }
+  if (status == "cancelled") {  // nothing will resume it
+    std::error_code ec;
+    std::filesystem::remove(std::filesystem::path(job.out_dir) / "checkpoint.bin", ec);
   }
   try {
     if (status == "requeue") {

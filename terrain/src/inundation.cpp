@@ -84,4 +84,20 @@ double InundationGrid::inundated_area(double threshold) const {
   return n * max_depth_.cell_area();
 }
 
+void InundationGrid::save_state(StateWriter& out) const {
+  out.label("inundation");
+  for (const Grid* g : {&max_depth_, &max_speed_, &depth_, &arrival_, &max_hv_, &max_pressure_}) out.values(g->values);
+  out.values(vol_), out.values(hv_), out.values(rho_v2_), out.values(touched_), out.values(touched_flag_);
+}
+
+void InundationGrid::load_state(StateReader& in) {
+  in.expect("inundation");
+  for (Grid* g : {&max_depth_, &max_speed_, &depth_, &arrival_, &max_hv_, &max_pressure_}) {
+    const size_t cells = g->values.size();
+    in.values(g->values);
+    if (g->values.size() != cells) in.fail("is of a grid of another size");
+  }
+  in.values(vol_), in.values(hv_), in.values(rho_v2_), in.values(touched_), in.values(touched_flag_);
+}
+
 }  // namespace runout::terrain

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <set>
+#include <sstream>
 
 #include "runout/engine/solver.hpp"
 
@@ -174,5 +175,56 @@ TEST(WallTiles, TwoRunsLayTheSameTilesAndGiveTheSameBits) {
   for (int d = 0; d < 3; ++d) {
     EXPECT_EQ(a.fluid().pos[d], b.fluid().pos[d]);
     EXPECT_EQ(a.fluid().vel[d], b.fluid().vel[d]);
+  }
+}
+
+// A checkpoint of a run with wall tiles, taken mid-slide and loaded into a solver built afresh, continues the
+// run bit for bit: the tiles alive then, the walls' densities and the tiles laid after it (one thread).
+TEST(WallTiles, ARunResumedFromACheckpointGivesTheSameBits) {
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  Solver<3> a(sliding_block(true, BoundaryPressure::dbc));
+  for (int k = 0; k < 120; ++k) a.step();
+  std::stringstream saved;
+  StateWriter out(saved);
+  a.save_state(out);
+  Solver<3> b(sliding_block(true, BoundaryPressure::dbc));
+  StateReader in(saved);
+  b.load_state(in);
+  EXPECT_EQ(b.boundary().id, a.boundary().id);
+  const uint64_t generation = a.boundary_generation();
+  for (int k = 0; k < 180; ++k) {
+    a.step();
+    b.step();
+  }
+  omp_set_num_threads(threads);
+  EXPECT_GT(a.boundary_generation(), generation);  // tiles were laid after the checkpoint
+  EXPECT_EQ(a.time(), b.time());
+  EXPECT_EQ(a.steps(), b.steps());
+  EXPECT_EQ(a.boundary_generation(), b.boundary_generation());
+  EXPECT_EQ(a.boundary_peak(), b.boundary_peak());
+  EXPECT_EQ(a.boundary().id, b.boundary().id);
+  EXPECT_EQ(a.boundary().rho, b.boundary().rho);
+  for (int d = 0; d < 3; ++d) {
+    EXPECT_EQ(a.fluid().pos[d], b.fluid().pos[d]);
+    EXPECT_EQ(a.fluid().vel[d], b.fluid().vel[d]);
+  }
+  EXPECT_EQ(a.fluid().rho, b.fluid().rho);
+  EXPECT_EQ(a.energy().potential_released, b.energy().potential_released);
+}
+
+// A checkpoint is refused by a solver of another setup, naming what differs.
+TEST(WallTiles, ACheckpointOfAnotherSetupIsRefused) {
+  Solver<3> a(sliding_block(true, BoundaryPressure::dbc));
+  std::stringstream saved;
+  StateWriter out(saved);
+  a.save_state(out);
+  Solver<3> b(sliding_block(false, BoundaryPressure::dbc));  // the bed laid whole: other wall particles
+  StateReader in(saved);
+  try {
+    b.load_state(in);
+    FAIL() << "a checkpoint of another setup was loaded";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("wall source"), std::string::npos) << e.what();
   }
 }

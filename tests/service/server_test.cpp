@@ -1,4 +1,5 @@
 // The HTTP service end to end (issue 5): the real `runout serve` on a loopback port with a scratch database.
+//  - SIGTERM puts the running job back in the queue with its state saved; the restarted service resumes it;
 //  - round trip: submit -> poll -> done; the stored metrics equal `runout run`'s on the same resolved scene
 //    (every metric that does not depend on wall time); /compare gives the right differences;
 //  - kill -9 while a job runs, restart on the same database: every accepted job finishes exactly once;
@@ -338,6 +339,14 @@ TEST_F(Service, SigtermPutsTheRunningJobBackInTheQueue) {
   const json done = wait_status(id, "done", 60s);
   ASSERT_EQ(done.value("status", ""), "done") << done.dump();
   EXPECT_EQ(done.at("attempts"), 2);
+  // The stopped job saved its state and the restarted service resumed it there (RunOptions::checkpoint_interval).
+  const Reply m = get("/jobs/" + std::to_string(id) + "/metrics");
+  ASSERT_EQ(m.status, 200);
+  const json& metrics = m.body.at("metrics_json");
+  ASSERT_TRUE(metrics.contains("resumed")) << metrics.dump();
+  EXPECT_GT(metrics.at("resumed").at("from_s").get<double>(), 0.0);
+  EXPECT_EQ(metrics.at("resumed").at("sessions"), 2);
+  EXPECT_NEAR(metrics.at("simulated_time_s").get<double>(), 30.0, 0.01);
   // The stopped attempt's row was replaced by the completed run: one run for the job.
   EXPECT_EQ(query_int("SELECT COUNT(*) FROM runs"), 1);
   EXPECT_EQ(query_int("SELECT COUNT(*) FROM runs WHERE status = 'completed'"), 1);

@@ -187,6 +187,16 @@ class DepthGauge final : public Monitor<D> {
     return out;
   }
 
+  void save_state(StateWriter& out) const override {
+    out.label("depth_gauge:" + this->name());
+    out.value(max_), out.value(max_time_), out.value(max_station_), out.value(final_);
+  }
+
+  void load_state(StateReader& in) override {
+    in.expect("depth_gauge:" + this->name());
+    in.value(max_), in.value(max_time_), in.value(max_station_), in.value(final_);
+  }
+
  private:
   std::vector<Vec<D>> feet_;
   std::vector<real> along_, fill_;

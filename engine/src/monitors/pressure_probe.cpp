@@ -77,6 +77,18 @@ class PressureProbe final : public Monitor<D> {
             {"wet_fraction", samples_ ? static_cast<real>(wet_samples_) / samples_ : 0.0}};
   }
 
+  void save_state(StateWriter& out) const override {
+    out.label("pressure_probe:" + this->name());
+    out.value(samples_), out.value(wet_samples_);
+    out.value(peak_), out.value(peak_time_), out.value(sum_p_), out.value(arrival_);
+  }
+
+  void load_state(StateReader& in) override {
+    in.expect("pressure_probe:" + this->name());
+    in.value(samples_), in.value(wet_samples_);
+    in.value(peak_), in.value(peak_time_), in.value(sum_p_), in.value(arrival_);
+  }
+
  private:
   Vec<D> point_;
   real wet_;

@@ -99,6 +99,26 @@ class SectionGauge final : public Monitor<D> {
             {"discharge_window_s", hydrograph_.window()}};
   }
 
+  // The orientation, the arrival volume and the hydrograph's window came from the flow at the start, which a
+  // resumed run's constructor no longer sees: they are saved with the counts.
+  void save_state(StateWriter& out) const override {
+    out.label("section:" + this->name());
+    out.values(side_);
+    out.value(downstream_), out.value(arrival_volume_);
+    out.value(passed_), out.value(last_passed_), out.value(last_t_);
+    out.value(peak_unfiltered_), out.value(arrival_time_);
+    hydrograph_.save_state(out);
+  }
+
+  void load_state(StateReader& in) override {
+    in.expect("section:" + this->name());
+    in.values(side_);
+    in.value(downstream_), in.value(arrival_volume_);
+    in.value(passed_), in.value(last_passed_), in.value(last_t_);
+    in.value(peak_unfiltered_), in.value(arrival_time_);
+    hydrograph_.load_state(in);
+  }
+
  private:
   std::vector<std::array<real, 2>> pts_;
   std::vector<int8_t> side_;  // by particle id

@@ -78,6 +78,25 @@ class StructureLoad final : public Monitor<D> {
             {"min_wetted_area_m2", filter_.min_wetted_area()}};
   }
 
+  // The members are indices into the boundary as it was laid out when saved: not saved, found again at the next
+  // evaluation. The filter carries the window and minimum area derived from the flow at the start.
+  void save_state(StateWriter& out) const override {
+    out.label("structure_load:" + this->name());
+    out.value(evaluated_);
+    out.value(instant_force_), out.value(instant_peak_pressure_), out.value(peak_particle_pressure_);
+    out.values(history_);
+    filter_.save_state(out);
+  }
+
+  void load_state(StateReader& in) override {
+    in.expect("structure_load:" + this->name());
+    in.value(evaluated_);
+    in.value(instant_force_), in.value(instant_peak_pressure_), in.value(peak_particle_pressure_);
+    in.values(history_);
+    filter_.load_state(in);
+    generation_ = kNoGeneration;
+  }
+
  private:
   struct Face {
     real height, area, g;  // along gravity [m]; height x width across the flow [m2, m in 2D]; |g| [m/s2]
@@ -219,6 +238,9 @@ class StructureLoad final : public Monitor<D> {
     generation_ = s.boundary_generation();
   }
 
+  // No solver's boundary_generation(): members_ is collected again at the next evaluation. lo_ and hi_ need not
+  // be: the structure's particles are always alive and never move, only their indices change.
+  static constexpr uint64_t kNoGeneration = std::numeric_limits<uint64_t>::max();
   uint32_t tag_;
   uint64_t generation_ = 0;
   std::vector<size_t> members_;

@@ -79,36 +79,12 @@ void Solver<D>::refresh_wall_tiles(bool force) {
   // Drop the particles of tiles no longer wanted; those kept keep their state (a DBC wall's density).
   std::vector<char> keep(boundary_.size());
   for (size_t b = 0; b < keep.size(); ++b) keep[b] = I.boundary_tile[b] < 0 || I.tile_mark[I.boundary_tile[b]] == I.mark_stamp;
-  for (int d = 0; d < D; ++d)
-    compact(boundary_.pos[d], keep), compact(boundary_.vel[d], keep), compact(boundary_normal_[d], keep);
-  compact(boundary_.rho, keep), compact(boundary_.mass, keep), compact(boundary_.material, keep);
-  compact(boundary_.tag, keep), compact(boundary_.id, keep), compact(I.boundary_tile, keep);
-  compact(I.boundary_rank, keep), compact(boundary_rho_saved_, keep), compact(boundary_pressure_, keep);
+  keep_boundary(keep);
   for (int64_t t : I.live_tiles)
     if (I.tile_mark[t] != I.mark_stamp) I.tile_live[t] = 0;
 
-  // Lay the new ones.
-  const real bmass = config_.boundary_density * std::pow(config_.dp, D);
-  std::vector<Vec<D>> pos, normals;
-  std::vector<uint32_t> tags;
-  for (int64_t t : wanted) {
-    if (I.tile_live[t]) continue;
-    I.tile_live[t] = 1;
-    pos.clear();
-    normals.clear();
-    tags.clear();
-    wall_source_->lay(t, pos, normals, tags);
-    const uint64_t first = I.boundary_fixed + wall_source_->first_index(t);
-    for (size_t k = 0; k < pos.size(); ++k) {
-      boundary_.add(pos[k], config_.boundary_density, bmass, 0, tags[k]);
-      for (int d = 0; d < D; ++d) boundary_normal_[d].push_back(normals[k][d]);
-      boundary_.id.back() = static_cast<uint32_t>(first + k);
-      I.boundary_tile.push_back(t);
-      I.boundary_rank.push_back(first + k);
-      boundary_rho_saved_.push_back(config_.boundary_density);
-      boundary_pressure_.push_back(0.0);
-    }
-  }
+  for (int64_t t : wanted)
+    if (!I.tile_live[t]) lay_tile(t);
   I.live_tiles = std::move(wanted);
   sort_boundary();
   ++boundary_generation_;
@@ -118,6 +94,51 @@ void Solver<D>::refresh_wall_tiles(bool force) {
     s << fmt_time(time_) << ": " << boundary_.size() << " wall particles alive near " << n
       << " flow particles, over limits.max_particles = " << max_particles_;
     throw SimulationError(s.str());
+  }
+}
+
+template <int D>
+void Solver<D>::keep_boundary(const std::vector<char>& keep) {
+  auto& I = *impl_;
+  for (int d = 0; d < D; ++d)
+    compact(boundary_.pos[d], keep), compact(boundary_.vel[d], keep), compact(boundary_normal_[d], keep);
+  compact(boundary_.rho, keep), compact(boundary_.mass, keep), compact(boundary_.material, keep);
+  compact(boundary_.tag, keep), compact(boundary_.id, keep), compact(I.boundary_tile, keep);
+  compact(I.boundary_rank, keep), compact(boundary_rho_saved_, keep), compact(boundary_pressure_, keep);
+}
+
+template <int D>
+void Solver<D>::restore_wall_tiles(const std::vector<int64_t>& live) {
+  auto& I = *impl_;
+  std::vector<char> fixed(boundary_.size());
+  for (size_t b = 0; b < fixed.size(); ++b) fixed[b] = I.boundary_tile[b] < 0;
+  keep_boundary(fixed);
+  std::fill(I.tile_live.begin(), I.tile_live.end(), 0);
+  for (int64_t t : live) {
+    if (t < 0 || t >= static_cast<int64_t>(I.tile_live.size())) throw std::runtime_error("checkpoint: a wall tile out of range");
+    lay_tile(t);
+  }
+  I.live_tiles = live;
+  sort_boundary();
+}
+
+template <int D>
+void Solver<D>::lay_tile(int64_t t) {
+  auto& I = *impl_;
+  I.tile_live[t] = 1;
+  std::vector<Vec<D>> pos, normals;
+  std::vector<uint32_t> tags;
+  wall_source_->lay(t, pos, normals, tags);
+  const real bmass = config_.boundary_density * std::pow(config_.dp, D);
+  const uint64_t first = I.boundary_fixed + wall_source_->first_index(t);
+  for (size_t k = 0; k < pos.size(); ++k) {
+    boundary_.add(pos[k], config_.boundary_density, bmass, 0, tags[k]);
+    for (int d = 0; d < D; ++d) boundary_normal_[d].push_back(normals[k][d]);
+    boundary_.id.back() = static_cast<uint32_t>(first + k);
+    I.boundary_tile.push_back(t);
+    I.boundary_rank.push_back(first + k);
+    boundary_rho_saved_.push_back(config_.boundary_density);
+    boundary_pressure_.push_back(0.0);
   }
 }
 
@@ -159,6 +180,12 @@ template uint64_t Solver<3>::boundary_described() const;
 template void Solver<2>::refresh_wall_tiles(bool);
 template void Solver<3>::refresh_wall_tiles(bool);
 template void Solver<2>::sort_boundary();
+template void Solver<2>::lay_tile(int64_t);
+template void Solver<2>::keep_boundary(const std::vector<char>&);
+template void Solver<3>::keep_boundary(const std::vector<char>&);
+template void Solver<2>::restore_wall_tiles(const std::vector<int64_t>&);
+template void Solver<3>::restore_wall_tiles(const std::vector<int64_t>&);
+template void Solver<3>::lay_tile(int64_t);
 template void Solver<3>::sort_boundary();
 
 }  // namespace runout

@@ -11,6 +11,7 @@
 // Peaks of these filtered values are the design values; the largest instantaneous force is kept as a diagnostic.
 #include <deque>
 
+#include "runout/engine/state_io.hpp"
 #include "runout/engine/types.hpp"
 
 namespace runout {
@@ -41,6 +42,11 @@ class LoadFilter {
   real time_of_peak_pressure() const { return peak_pressure_time_; }
   // The largest instantaneous force added (diagnostic: what an unfiltered reading would report).
   real peak_instant_force() const { return peak_instant_; }
+
+  // Everything, the window and minimum area included: a monitor may have derived them from the flow at its
+  // start, which a resumed run no longer has.
+  void save_state(StateWriter& out) const;
+  void load_state(StateReader& in);
 
  private:
   struct Cumulative {

@@ -12,6 +12,7 @@
 
 #include "runout/engine/parameters.hpp"
 #include "runout/engine/solver.hpp"
+#include "runout/engine/state_io.hpp"
 
 namespace runout {
 
@@ -57,6 +58,10 @@ class Monitor {
   virtual std::vector<real> sample(const Solver<D>& solver) = 0;
   // The reduced metrics (name -> value, SI units in the name's suffix).
   virtual std::vector<std::pair<std::string, real>> summary() const = 0;
+  // The running state, for a checkpoint: load_state on a monitor made from the same spec, on a solver that was
+  // itself restored to the saved state, continues exactly as the saved one would have.
+  virtual void save_state(StateWriter& out) const = 0;
+  virtual void load_state(StateReader& in) = 0;
 
  private:
   std::string name_;

@@ -14,6 +14,7 @@
 #include "runout/engine/kernels.hpp"
 #include "runout/engine/parameters.hpp"
 #include "runout/engine/rheology.hpp"
+#include "runout/engine/state_io.hpp"
 #include "runout/engine/types.hpp"
 #include "runout/engine/wall_models.hpp"
 #include "runout/engine/wall_source.hpp"
@@ -231,6 +232,13 @@ class Solver {
   real max_mach() const { return max_mach_; }
   real min_dt_seen() const { return min_dt_seen_; }
 
+  // The run's state (particles, the wall tiles alive and the walls' densities, balances, clocks), for a
+  // checkpoint (solver/checkpoint.cpp): load_state on a solver built from the same setup continues exactly as
+  // the saved one would have (bit for bit on one thread). load_state throws std::runtime_error for a
+  // checkpoint of another setup.
+  void save_state(StateWriter& out) const;
+  void load_state(StateReader& in);
+
   // Evaluates accelerations and density rates at the current state without advancing (tests, monitors).
   void evaluate_rates();
   const std::array<std::vector<real>, D>& fluid_acceleration() const { return acc_; }
@@ -282,6 +290,9 @@ class Solver {
   // wall_tiles.cpp: lays the wall source's tiles the flow needs (all of them missing or `force`), drops those
   // it left, and sorts the boundary by cell.
   void refresh_wall_tiles(bool force);
+  void lay_tile(int64_t tile);  // appends its particles to the boundary (unsorted)
+  void keep_boundary(const std::vector<char>& keep);  // drops the boundary particles whose keep[b] is 0
+  void restore_wall_tiles(const std::vector<int64_t>& live);  // exactly these tiles alive (ascending), sorted
   void sort_boundary();
   void set_fixed_wall_normals(const std::vector<Vec<D>>& given);
   // One force evaluation (forces.cpp) and its steps.

@@ -67,6 +67,7 @@ struct SweepOptions {
   bool fidelity_override = false;
   int jobs = 1;     // runs at once
   int threads = 0;  // OpenMP threads per run; 0: the cores divided among the jobs
+  double checkpoint_interval = 0;  // [s] wall time between a run's checkpoints (RunOptions); 0: none
   const std::atomic<bool>* stop = nullptr;
   std::function<void(const SweepEvent&)> on_event;  // called from worker threads, one call at a time
 };

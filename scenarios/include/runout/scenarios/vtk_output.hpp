@@ -26,6 +26,9 @@ class SnapshotWriter {
   // Writes snapshot_NNNN.vtp of the solver's flow at its time and rewrites snapshots.pvd.
   void write_frame(const Solver<D>& solver);
   int frames() const { return static_cast<int>(times_.size()); }
+  // The frames' times, and the frames written before a checkpoint this run resumed from (rewrites the index).
+  const std::vector<double>& times() const { return times_; }
+  void resume_after(std::vector<double> times);
 
  private:
   void write_index() const;

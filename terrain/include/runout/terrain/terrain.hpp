@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "runout/engine/parameters.hpp"
+#include "runout/engine/state_io.hpp"
 #include "runout/engine/types.hpp"
 #include "runout/engine/wall_source.hpp"
 #include "runout/terrain/raster.hpp"
@@ -199,6 +200,10 @@ class InundationGrid {
   const Grid& arrival_time() const { return arrival_; }  // [s]; NaN where the flow never reached the threshold
   // Cells with max depth >= threshold, times the cell area.
   double inundated_area(double threshold) const;
+  // The running maxima, the arrival times and the last update's sums, for a run's checkpoint: load_state on a
+  // grid built from the same terrain continues as the saved one would have.
+  void save_state(StateWriter& out) const;
+  void load_state(StateReader& in);
 
  private:
   double origin_x_ = 0, origin_y_ = 0, dp_ = 0;

@@ -1,0 +1,101 @@
+// The solver's state for a checkpoint (solver.hpp, save_state / load_state). What a step reads of the past is
+// saved: the particles in their current order (the cell sort breaks ties by it), the integrator's previous
+// values (Verlet), the wall tiles alive and every wall particle's density, the balances and the last step's
+// statistics (the wall tiles' reach uses its speed). Everything else a step recomputes.
+#include <stdexcept>
+
+#include "impl.hpp"
+
+namespace runout {
+namespace {
+
+template <int D>
+void write_particles(StateWriter& out, const ParticleArrays<D>& p) {
+  for (int d = 0; d < D; ++d) out.values(p.pos[d]), out.values(p.vel[d]);
+  out.values(p.rho), out.values(p.mass), out.values(p.material), out.values(p.tag), out.values(p.id);
+}
+
+template <int D>
+void read_particles(StateReader& in, ParticleArrays<D>& p) {
+  for (int d = 0; d < D; ++d) in.values(p.pos[d]), in.values(p.vel[d]);
+  in.values(p.rho), in.values(p.mass), in.values(p.material), in.values(p.tag), in.values(p.id);
+  const size_t n = p.rho.size();
+  bool same = p.mass.size() == n && p.material.size() == n && p.tag.size() == n && p.id.size() == n;
+  for (int d = 0; d < D; ++d) same = same && p.pos[d].size() == n && p.vel[d].size() == n;
+  if (!same) in.fail("has particle arrays of different lengths");
+}
+
+// What must match between the setup that wrote a checkpoint and the one reading it.
+template <int D>
+void check_same_setup(StateReader& in, const SolverConfig& c, size_t materials, uint64_t described, bool source) {
+  const auto mismatch = [&](const char* what) { in.fail(std::string("is of another setup: its ") + what + " differs"); };
+  if (in.value<int>() != D) mismatch("dimension");
+  if (in.value<real>() != c.dp) mismatch("dp");
+  if (in.value<real>() != c.smoothing_length) mismatch("smoothing length");
+  if (in.value<real>() != c.speed_of_sound) mismatch("speed of sound");
+  if (in.value<int>() != static_cast<int>(c.integrator)) mismatch("integrator");
+  if (in.value<uint64_t>() != materials) mismatch("material count");
+  if (in.value<uint64_t>() != described) mismatch("wall particle count");
+  if (in.value<int>() != static_cast<int>(source)) mismatch("wall source (walls laid near the flow or whole)");
+}
+
+}  // namespace
+
+template <int D>
+void Solver<D>::save_state(StateWriter& out) const {
+  const auto& I = *impl_;
+  out.label("solver");
+  out.value<int>(D), out.value(config_.dp), out.value(config_.smoothing_length), out.value(config_.speed_of_sound);
+  out.value<int>(static_cast<int>(config_.integrator));
+  out.value<uint64_t>(materials_.size()), out.value<uint64_t>(boundary_described());
+  out.value<int>(wall_source_ ? 1 : 0);
+  out.value(time_), out.value(steps_), out.value(max_mach_), out.value(min_dt_seen_), out.value(stats_);
+  out.values(mass_.initial), out.values(mass_.current), out.values(mass_.outflow), out.values(mass_.inflow);
+  out.value(potential_initial_), out.value(potential_outflow_), out.value(kinetic_inflow_), out.value(next_id_);
+  out.value<uint64_t>(boundary_peak_), out.value(boundary_generation_);
+  out.label("fluid");
+  write_particles(out, fluid_);
+  for (int d = 0; d < D; ++d) out.values(pos_saved_[d]), out.values(vel_saved_[d]);
+  out.values(rho_saved_);
+  out.label("walls");
+  out.values(I.live_tiles);
+  out.values(boundary_.id), out.values(boundary_.rho), out.values(boundary_rho_saved_);
+}
+
+template <int D>
+void Solver<D>::load_state(StateReader& in) {
+  in.expect("solver");
+  check_same_setup<D>(in, config_, materials_.size(), boundary_described(), wall_source_ != nullptr);
+  in.value(time_), in.value(steps_), in.value(max_mach_), in.value(min_dt_seen_), in.value(stats_);
+  in.values(mass_.initial), in.values(mass_.current), in.values(mass_.outflow), in.values(mass_.inflow);
+  in.value(potential_initial_), in.value(potential_outflow_), in.value(kinetic_inflow_), in.value(next_id_);
+  boundary_peak_ = in.value<uint64_t>();
+  in.value(boundary_generation_);
+  in.expect("fluid");
+  read_particles(in, fluid_);
+  for (int d = 0; d < D; ++d) in.values(pos_saved_[d]), in.values(vel_saved_[d]);
+  in.values(rho_saved_);
+  for (int d = 0; d < D; ++d)
+    if (pos_saved_[d].size() < fluid_.size() || vel_saved_[d].size() < fluid_.size()) in.fail("is short of saved positions");
+  if (rho_saved_.size() < fluid_.size()) in.fail("is short of saved densities");
+  outflow_marked_.clear();
+
+  in.expect("walls");
+  std::vector<int64_t> live;
+  in.values(live);
+  if (wall_source_) restore_wall_tiles(live);
+  else if (!live.empty()) in.fail("has wall tiles for a setup without a wall source");
+  std::vector<uint32_t> ids;
+  in.values(ids);
+  if (ids != boundary_.id) in.fail("holds other wall particles than this setup lays");
+  in.values(boundary_.rho), in.values(boundary_rho_saved_);
+  if (boundary_.rho.size() != ids.size() || boundary_rho_saved_.size() != ids.size())
+    in.fail("has wall densities of the wrong length");
+}
+
+template void Solver<2>::save_state(StateWriter&) const;
+template void Solver<3>::save_state(StateWriter&) const;
+template void Solver<2>::load_state(StateReader&);
+template void Solver<3>::load_state(StateReader&);
+
+}  // namespace runout
