@@ -479,6 +479,13 @@ class Progress {
   clock::time_point t0_, last_;
 };
 
+// The scene a checkpoint belongs to: its canonical JSON without the prose description (as the manifest hash).
+std::string checkpoint_identity(const Scene& scene) {
+  json j = json::parse(scene.canonical_json);
+  j.erase("description");
+  return j.dump();
+}
+
 // What the stepping loop carries from one step to the next besides the solver and the recorders.
 struct LoopState {
   real next_sample = 0;
@@ -515,7 +522,7 @@ class Checkpoint {
       std::ofstream file(tmp, std::ios::binary);
       StateWriter out(file);
       out.label("runout checkpoint");
-      out.text(scene_.canonical_json);
+      out.text(checkpoint_identity(scene_));
       p.solver.save_state(out);
       p.series.save_state(out);
       p.watch.save_state(out);
@@ -536,7 +543,7 @@ class Checkpoint {
     StateReader in(file);
     try {
       in.expect("runout checkpoint");
-      if (in.text() != scene_.canonical_json)
+      if (in.text() != checkpoint_identity(scene_))
         throw std::runtime_error("it is of another scene (remove it, or run with another output directory)");
       p.solver.load_state(in);
       p.series.load_state(in);
@@ -873,7 +880,7 @@ bool has_checkpoint_of(const Scene& scene, const fs::path& out_dir) {
   try {
     StateReader in(file);
     in.expect("runout checkpoint");
-    return in.text() == scene.canonical_json;
+    return in.text() == checkpoint_identity(scene);
   } catch (const std::runtime_error&) {
     return false;
   }

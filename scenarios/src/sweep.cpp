@@ -233,7 +233,8 @@ std::string resolve_scene(const std::string& scene_json, const Fidelity& fidelit
 
 Manifest make_manifest(const std::string& resolved_scene_json, const std::filesystem::path& base_dir,
                        const Fidelity& fidelity) {
-  const json scene = json::parse(resolved_scene_json);
+  json scene = json::parse(resolved_scene_json);
+  scene.erase("description");  // prose: editing it changes no result, so it must not make the runs new ones
   json m;
   m["scene"] = scene;  // nlohmann::json objects are key-sorted: this is canonical
   m["fidelity"] = fidelity.dp ? "custom" : fidelity.name;

@@ -138,7 +138,8 @@ TEST_F(OneThread, AStoppedRunSavesItsStateAndResumesFromIt) {
   EXPECT_FALSE(fs::exists(dir.path / "checkpoint.bin"));
 }
 
-// A checkpoint of another scene (here: another duration) is refused with the file's name, and kept.
+// A checkpoint of another scene (here: another duration) is refused with the file's name, and kept; one of the
+// same scene reworded in its description only is the same run's.
 TEST_F(OneThread, ACheckpointOfAnotherSceneIsRefusedAndKept) {
   TempDir dir("runout-checkpoint-other");
   std::atomic<bool> stop{true};
@@ -148,6 +149,9 @@ TEST_F(OneThread, ACheckpointOfAnotherSceneIsRefusedAndKept) {
   opt.stop = &stop;
   ASSERT_EQ(run_scene(flume_c6(0.3), opt).status, "stopped");
   stop = false;
+  json reworded = json::parse(flume_c6(0.3).canonical_json);
+  reworded["description"] = "the same flume, described again";
+  EXPECT_TRUE(has_checkpoint_of(parse_scene(reworded.dump(), kFlume), dir.path));
   const Scene other = flume_c6(0.4);
   EXPECT_FALSE(has_checkpoint_of(other, dir.path));
   try {

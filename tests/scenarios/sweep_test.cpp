@@ -107,6 +107,9 @@ TEST(Sweep, ManifestChangesWithWhatChangesTheRunAndOnlyThat) {
   EXPECT_NE(ma.hash, make_manifest(b, {}, Fidelity{"draft", {}}).hash);
   EXPECT_NE(ma.hash, make_manifest(a, {}, Fidelity{"fine", {}}).hash);
   EXPECT_NE(json::parse(ma.json)["dem_sha256"].get<std::string>(), "missing");
+  json described = json::parse(a);  // a scene's description is prose: rewording it is not a new run
+  described["description"] = "the same layout, described again";
+  EXPECT_EQ(ma.hash, make_manifest(described.dump(), {}, Fidelity{"draft", {}}).hash);
 }
 
 TEST(Sweep, BadSweepFilesAreRefusedNamingTheField) {

@@ -51,8 +51,8 @@ std::string resolve_variant(const std::string& base_json, const SweepVariant& va
 // Throws SceneError on malformed JSON. Validated by parse_scene when run.
 std::string resolve_scene(const std::string& scene_json, const Fidelity& fidelity);
 
-// The run's identity: SHA-256 over the resolved scene (canonical JSON), the hashes of the files it reads
-// (the DEM), the fidelity and the program version. Same inputs, same hash: a stored run is not recomputed.
+// The run's identity: SHA-256 over the resolved scene (canonical JSON, without its prose `description`), the
+// hashes of the files it reads (the DEM), the fidelity and the program version. Same inputs, same hash: a stored run is not recomputed.
 struct Manifest {
   std::string hash;
   std::string json;  // what was hashed, for the record
