@@ -282,7 +282,8 @@ TradeoffResult run_tradeoff(RunStore& store, const TradeoffSpec& spec, const Tra
       ro.out_dir = opt.out_dir / L.label;
       ro.threads = threads;
       ro.stop = opt.stop;
-      fs::remove_all(ro.out_dir);
+      ro.checkpoint_interval = opt.checkpoint_interval;
+      if (!(ro.checkpoint_interval > 0 && has_checkpoint_of(scene, ro.out_dir))) fs::remove_all(ro.out_dir);
       const RunSummary s = run_scene(scene, ro);
       json m = json::parse(s.metrics_json, nullptr, false);
       // Only a reset peak is the run's own (the process may have held more before).

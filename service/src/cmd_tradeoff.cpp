@@ -27,6 +27,7 @@ struct TradeoffArgs {
   std::vector<std::string> options;  // PATH=VALUE numerics choices run at option_level
   std::string option_level;
   int threads = 0;
+  double checkpoint_every = 0;
   std::string out_dir;               // default runs/tradeoff/<name>
   std::string db = "runout.db";
   bool predict_only = false;
@@ -95,6 +96,7 @@ int tradeoff(const TradeoffArgs& c, const std::atomic<bool>* stop) {
   TradeoffRunOptions opt;
   opt.out_dir = c.out_dir.empty() ? fs::path("runs") / "tradeoff" / safe_name(spec.name) : fs::path(c.out_dir);
   opt.threads = c.threads;
+  opt.checkpoint_interval = c.checkpoint_every;
   opt.stop = stop;
   opt.predict_only = c.predict_only;
   opt.on_line = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
@@ -139,6 +141,10 @@ Action add_tradeoff(CLI::App& app) {
                   "A numerics choice run at one rung, PATH=VALUE (numerics.kernel=cubic); repeatable");
   cmd->add_option("--option-level", c->option_level, "The rung the options run at (default: the coarsest)");
   cmd->add_option("--threads,-j", c->threads, "OpenMP threads (default: all cores)")->check(CLI::Range(0, 1024));
+  cmd->add_option("--checkpoint-every", c->checkpoint_every,
+                  "Save a level's state every SECONDS of wall time and when stopped; the same command resumes the "
+                  "level from it (default 0: no checkpoints)")
+      ->check(CLI::Range(0.0, 1e6));
   cmd->add_option("--out,-o", c->out_dir, "levels.csv, metrics.csv, tradeoff.svg and each level's outputs "
                                           "(default runs/tradeoff/<name>)");
   cmd->add_option("--db", c->db, "Run store (SQLite); stored levels are reused")->capture_default_str();

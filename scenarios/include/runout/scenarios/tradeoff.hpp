@@ -33,6 +33,7 @@ struct TradeoffSpec {
 struct TradeoffRunOptions {
   std::filesystem::path out_dir = "runs/tradeoff";  // a level's outputs go to OUT/<label>
   int threads = 0;                                    // OpenMP threads (0: all cores)
+  double checkpoint_interval = 0;  // [s] wall time between a level's checkpoints (RunOptions); 0: none
   const std::atomic<bool>* stop = nullptr;
   bool predict_only = false;                          // build each level and predict its cost; run nothing
   std::function<void(const std::string&)> on_line;    // progress lines for people
