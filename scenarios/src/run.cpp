@@ -1,6 +1,8 @@
 #include "runout/scenarios/run.hpp"
 
+#include <fcntl.h>
 #include <omp.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -516,23 +518,20 @@ class Checkpoint {
     LoopState& loop;
   };
 
+  // A checkpoint that cannot be written (a full disk) costs the run only that checkpoint: the previous one stays
+  // whole, the run goes on, and metrics.json warns (failures()).
   void save(const Parts& p, double elapsed) {
-    const fs::path tmp = path_.string() + ".tmp";
-    {
-      std::ofstream file(tmp, std::ios::binary);
-      StateWriter out(file);
-      out.label("runout checkpoint");
-      out.text(checkpoint_identity(scene_));
-      p.solver.save_state(out);
-      p.series.save_state(out);
-      p.watch.save_state(out);
-      p.snapshots.save_state(out);
-      save_loop(out, p.loop, elapsed);
-      file.flush();
-      if (!file) throw std::runtime_error("cannot write the checkpoint '" + tmp.string() + "'");
-    }
-    fs::rename(tmp, path_);
     last_ = elapsed;
+    try {
+      write(p, elapsed);
+    } catch (const std::exception& e) {
+      ++failures_;
+      last_error_ = e.what();
+    }
+  }
+  // "" when every checkpoint was written; else how many were not and why the last one was not.
+  std::string failures() const {
+    return failures_ ? std::to_string(failures_) + " checkpoint(s) could not be written (last: " + last_error_ + ")" : "";
   }
 
   // Restores the run from OUT/checkpoint.bin when it holds this scene; false when there is none. Throws
@@ -561,6 +560,35 @@ class Checkpoint {
   }
 
  private:
+  // Written to a temporary name, flushed to the disk and renamed: a kill or a power cut leaves one whole file.
+  void write(const Parts& p, double elapsed) const {
+    const fs::path tmp = path_.string() + ".tmp";
+    {
+      std::ofstream file(tmp, std::ios::binary);
+      if (!file) throw std::runtime_error("cannot open '" + tmp.string() + "'");
+      StateWriter out(file);
+      out.label("runout checkpoint");
+      out.text(checkpoint_identity(scene_));
+      p.solver.save_state(out);
+      p.series.save_state(out);
+      p.watch.save_state(out);
+      p.snapshots.save_state(out);
+      save_loop(out, p.loop, elapsed);
+      file.close();
+      if (!file) throw std::runtime_error("cannot write '" + tmp.string() + "'");
+    }
+    sync_to_disk(tmp);
+    fs::rename(tmp, path_);
+    sync_to_disk(path_.parent_path().empty() ? fs::path(".") : path_.parent_path());
+  }
+  static void sync_to_disk(const fs::path& p) {
+    const int fd = ::open(p.c_str(), O_RDONLY);
+    if (fd < 0) throw std::runtime_error("cannot open '" + p.string() + "' to sync it");
+    const int rc = ::fsync(fd);
+    ::close(fd);
+    if (rc != 0) throw std::runtime_error("cannot sync '" + p.string() + "' to disk");
+  }
+
   static void save_loop(StateWriter& out, const LoopState& l, double elapsed) {
     out.label("loop");
     out.value(l.next_sample), out.value(l.rest_since), out.value(l.particle_steps);
@@ -576,6 +604,8 @@ class Checkpoint {
   const Scene& scene_;
   fs::path path_;
   double interval_, last_;
+  int failures_ = 0;
+  std::string last_error_;
 };
 
 // The recorders' first samples, at the start of a fresh run.
@@ -845,6 +875,7 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
   series.write(opt.out_dir / "series");
   json m = run_metrics(scene, solver, sum, counts, series.max_ke_excess());
   if (loop.resumed_from >= 0) m["resumed"] = {{"from_s", loop.resumed_from}, {"sessions", loop.sessions}};
+  if (!checkpoint.failures().empty()) m["warnings"].push_back(checkpoint.failures());
   m["monitors"] = series.summaries();
   if (watch.active()) add_terrain_metrics(m, scene, watch, opt.out_dir, sum.status);
   sum.metrics_json = m.dump(2);

@@ -96,7 +96,7 @@ int run(const RunArgs& a) {
   }
   bar.finish();
   if (s.resumed_from >= 0) spdlog::info("resumed from the checkpoint at t = {:.4g} s", s.resumed_from);
-  if (s.status == "stopped" && opt.checkpoint_interval > 0)
+  if (s.status == "stopped" && opt.checkpoint_interval > 0 && std::filesystem::exists(out / "checkpoint.bin"))
     spdlog::info("state saved to {}: the same command resumes the run", (out / "checkpoint.bin").string());
   if (store) store_run(*store, a, resolved, s, out);
   if (s.status == "failed") {

@@ -163,3 +163,19 @@ TEST_F(OneThread, ACheckpointOfAnotherSceneIsRefusedAndKept) {
   }
   EXPECT_TRUE(fs::exists(dir.path / "checkpoint.bin"));
 }
+
+// A checkpoint that cannot be written (here its temporary name is taken by a directory) does not stop the run:
+// it completes and metrics.json says how many checkpoints were lost and why.
+TEST_F(OneThread, ACheckpointThatCannotBeWrittenWarnsAndTheRunGoesOn) {
+  TempDir dir("runout-checkpoint-unwritable");
+  fs::create_directories(dir.path / "checkpoint.bin.tmp");
+  RunOptions opt;
+  opt.out_dir = dir.path;
+  opt.checkpoint_interval = 0.05;
+  const RunSummary s = run_scene(flume_c6(0.3), opt);
+  EXPECT_EQ(s.status, "completed") << s.error;
+  EXPECT_GE(s.simulated_time, 0.3);
+  const json m = json::parse(read_file(dir.path / "metrics.json"));
+  ASSERT_TRUE(m.contains("warnings")) << m.dump(2);
+  EXPECT_NE(m["warnings"].dump().find("checkpoint(s) could not be written"), std::string::npos) << m["warnings"];
+}
