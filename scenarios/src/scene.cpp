@@ -46,13 +46,15 @@ terrain::IntensityThresholds read_intensity(const Fields& out) {
 
 OutputSettings read_output(const json& j, real duration) {
   Fields out(j.contains("output") ? j["output"] : json::object(), "output",
-             {"series_interval", "snapshot_interval", "inundation_threshold", "rest_speed", "rest_time", "intensity"});
+             {"series_interval", "snapshot_interval", "inundation_threshold", "rest_speed", "rest_time", "rest_quantile",
+              "intensity"});
   OutputSettings o;
   o.series_interval = out.number_or("series_interval", std::min(0.01, duration / 100.0), 0.0, 1e4, true);
   o.snapshot_interval = out.number_or("snapshot_interval", 0.0, 0.0, 1e4);
   o.inundation_threshold = out.number_or("inundation_threshold", 0.1, 0.0, 100.0, true);
   o.rest_speed = out.number_or("rest_speed", 0.0, 0.0, 100.0);
   o.rest_time = out.number_or("rest_time", 1.0, 0.0, 1e4, true);
+  o.rest_quantile = out.number_or("rest_quantile", 1.0, 0.0, 1.0, true);
   o.intensity = read_intensity(out);
   return o;
 }

@@ -70,6 +70,9 @@ json output_schema() {
                                             "rest_time; 0 runs the whole duration"}}},
             {"rest_time", {{"type", "number"}, {"exclusiveMinimum", 0}, {"maximum", 10000},
                            {"description", "s: how long the flow must stay under rest_speed"}}},
+            {"rest_quantile", {{"type", "number"}, {"exclusiveMinimum", 0}, {"maximum", 1},
+                               {"description", "share of the flow particles that must be slower than rest_speed; "
+                                               "1 (default) waits for every one"}}},
             {"intensity", number_object(terrain::intensity_parameters(),
                                         "terrain scenes: thresholds of the intensity.tif classes")}}},
           {"additionalProperties", false}};

@@ -219,6 +219,8 @@ const std::vector<Case> kRefused = {
 
     edit("RestSpeedNegative", set(P("/output/rest_speed"), -1), "output.rest_speed", {"[0, 100]"}),
     edit("RestTimeZero", set(P("/output/rest_time"), 0), "output.rest_time", {"(0, 10000]"}),
+    edit("RestQuantileZero", set(P("/output/rest_quantile"), 0), "output.rest_quantile", {"(0, 1]"}),
+    edit("RestQuantileOverOne", set(P("/output/rest_quantile"), 1.5), "output.rest_quantile", {"(0, 1]"}),
 
     // A particle count over limits.max_particles.
     edit("OverMaxParticles", set(P("/limits/max_particles"), 100), "dp", {"limits.max_particles = 100"}),

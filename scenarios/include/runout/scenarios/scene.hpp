@@ -30,10 +30,11 @@ struct OutputSettings {
   real series_interval = 0.01;    // [s] of simulated time between rows of series/run.csv
   real snapshot_interval = 0.0;   // [s]; 0 = only when snapshots are requested, then 20 over the run
   real inundation_threshold = 0.1; // [m] depth above which a terrain cell counts as inundated
-  // The run may end before its duration once the flow is at rest: every flow particle slower than rest_speed
-  // for rest_time of simulated time. 0: run the whole duration.
-  real rest_speed = 0.0;  // [m/s]
-  real rest_time = 1.0;   // [s]
+  // The run may end before its duration once the flow is at rest: a share rest_quantile of the flow particles
+  // (1: every one) slower than rest_speed for rest_time of simulated time. rest_speed 0: run the whole duration.
+  real rest_speed = 0.0;     // [m/s]
+  real rest_time = 1.0;      // [s]
+  real rest_quantile = 1.0;  // [-], (0, 1]
   terrain::IntensityThresholds intensity;  // output.intensity: the intensity.tif classes (terrain/hazard.hpp)
 };
 
