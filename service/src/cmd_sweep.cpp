@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 
@@ -98,11 +99,14 @@ bool load(const SweepArgs& a, Sweep& sweep, SweepOptions& opt) {
   return true;
 }
 
-// A line on stderr as each run ends: its status and time, the sweep's elapsed time and ETA.
+// A line on stderr as each run ends: its status and time, the sweep's elapsed time and ETA; and, for a run
+// still going, a line every minute of wall time: where its clock stands and when it should end at its pace so
+// far (a long run would otherwise say nothing for hours).
 class ProgressLines {
  public:
   explicit ProgressLines(const SweepOptions& opt) : opt_(opt) {}
   void operator()(const SweepEvent& e) {
+    if (e.kind == SweepEvent::progress) return running(e);
     if (e.kind != SweepEvent::finished) return;
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
     ++done_;
@@ -120,7 +124,19 @@ class ProgressLines {
   }
 
  private:
+  void running(const SweepEvent& e) {
+    const RunProgress& p = e.progress_info;
+    if (e.index >= last_line_.size()) last_line_.resize(e.index + 1, 0.0);
+    if (p.wall_seconds < last_line_[e.index] + 60 || p.time <= 0) return;
+    last_line_[e.index] = p.wall_seconds;
+    const double left = p.wall_seconds * std::max(0.0, static_cast<double>(p.duration - p.time)) / p.time;
+    std::fprintf(stderr, "  %s: t = %.4g of %.4g s, %ld steps, %zu particles, %.0f s, about %.0f s to go\n",
+                 e.variant.c_str(), static_cast<double>(p.time), static_cast<double>(p.duration), p.steps, p.particles,
+                 p.wall_seconds, left);
+  }
+
   const SweepOptions& opt_;
+  std::vector<double> last_line_;  // per variant: the run's wall time at its last progress line
   std::chrono::steady_clock::time_point t0_ = std::chrono::steady_clock::now();
   size_t done_ = 0, ran_ = 0;
   double run_wall_ = 0;
