@@ -4,6 +4,7 @@
 // off saves.
 //
 //   build/bench/bench_dam_break_3d [--dp 0.016,0.012,0.0085] [--steps 200] [--warmup 20] [--threads 2] [--only-throughput]
+//   build/bench/bench_dam_break_3d --dp 0.012 --skins 0,0.1,0.2,0.3,0.5   (the neighbour skin, side by side)
 //
 // Throughput counts fluid particles x steps (boundary particles do work only next to fluid); the total
 // (fluid + boundary) figure is printed too, since some codes quote that.
@@ -51,6 +52,34 @@ Result measure(const json& scene_json, int threads, int warmup, int steps) {
   return r;
 }
 
+// The Verlet list's skin (numerics.neighbour_skin): time per step against the first skin given (0: the cells
+// scanned at every evaluation), with the scene's inviscid Verlet scheme (one evaluation a step) and with the catchment's
+// friction-HBP and symplectic scheme (two), measured one after the other in this process.
+void compare_skins(const json& base, double dp, const std::vector<double>& skins, int threads, int warmup, int steps) {
+  const json hbp = {{"name", "water"}, {"rheology", "friction-hbp"}, {"density", 1000}, {"viscosity", 1e-3},
+                    {"flow_index", 1.05}, {"regularisation", 100}, {"friction_angle", 28}, {"cohesion", 0}};
+  std::printf("Neighbour skin at dp = %.4f m, %d threads, %d warm-up + %d timed steps (time per step relative to "
+              "the first skin):\n", dp, threads, warmup, steps);
+  for (bool symplectic_hbp : {false, true}) {
+    double base_time = 0;
+    for (double skin : skins) {
+      json s = base;
+      s["dp"] = dp;
+      s["numerics"]["neighbour_skin"] = skin;
+      if (symplectic_hbp) {
+        s["materials"] = json::array({hbp});
+        s["numerics"]["integrator"] = "symplectic";
+      }
+      const Result r = measure(s, threads, warmup, steps);
+      if (base_time == 0) base_time = r.seconds;
+      std::printf("  %-34s skin %.2f h: %10.3e fluid p-s/s   %.3fx\n",
+                  symplectic_hbp ? "friction-HBP, symplectic" : "scene (inviscid water, Verlet)", skin,
+                  r.fluid_rate(), r.seconds / base_time);
+      std::fflush(stdout);
+    }
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -64,9 +93,17 @@ int main(int argc, char** argv) {
   app.add_option("--warmup", warmup, "untimed steps first")->check(CLI::Range(0, 1000000));
   app.add_option("--threads", max_threads, "threads of the many-thread column")->check(CLI::Range(1, 1024));
   app.add_flag("--only-throughput", only_throughput, "the first table only (for side-by-side comparisons)");
+  std::vector<double> skins;
+  app.add_option("--skins", skins,
+                 "only compare these neighbour skins [fractions of h] side by side at the first dp, comma-separated")
+      ->delimiter(',');
   CLI11_PARSE(app, argc, argv);
   std::ifstream in(std::string(RUNOUT_SOURCE_DIR) + "/scenarios/validation/dam_break_3d.json");
   json base = json::parse(in);
+  if (!skins.empty()) {
+    compare_skins(base, dps.front(), skins, max_threads, warmup, steps);
+    return 0;
+  }
 
   std::printf("3D dam break (Verlet, cubic spline, h = 1.732 dp, c0 = 34.3 m/s, CFL 0.2, DBC, alpha 0.1, "
               "Fourtakas 0.1); %d warm-up + %d timed steps\n\n", warmup, steps);

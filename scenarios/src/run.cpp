@@ -769,6 +769,7 @@ json settings_metrics(const Solver<D>& solver) {
           {"shear_rate_floor_1_s", cfg.shear_rate_floor},
           {"density_floor", cfg.density_floor},
           {"max_dilatancy", cfg.max_dilatancy},
+          {"neighbour_skin", cfg.neighbour_skin},
           {"boundary_pressure", boundary_pressure_names()[static_cast<size_t>(cfg.boundary_pressure)]}};
 }
 
@@ -818,6 +819,8 @@ json run_metrics(const Scene& scene, const Solver<D>& solver, const RunSummary& 
                     {"boundary", counts.boundary}, {"boundary_peak", solver.boundary_peak()},
                     {"wall_rebuilds", solver.boundary_generation()}};
   m["steps"] = sum.steps;
+  // How often the cells were scanned for neighbour pairs (with a neighbour skin, only after a sort).
+  m["neighbour_list_builds"] = solver.neighbour_list_builds();
   m["simulated_time_s"] = sum.simulated_time;
   m["wall_time_s"] = sum.wall_seconds;
   m["particle_steps_per_s"] = sum.particle_steps_per_second;

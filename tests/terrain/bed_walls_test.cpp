@@ -105,6 +105,7 @@ TEST(BedWalls, NearTheFlowGivesTheRunOfTheWholeBedWithAFractionOfItsParticles) {
     for (const char* k : {"wall_time_s", "particle_steps_per_s"}) m->erase(k);
     (*m)["particles"].erase("boundary_peak");
     (*m)["particles"].erase("wall_rebuilds");
+    m->erase("neighbour_list_builds");  // near the flow, each change of the walls alive scans them again
     (*m)["cost_features"].erase("bed");
     (*m)["cost_features"].erase("boundary_fixed");
   }

@@ -11,6 +11,32 @@
 #include <stdexcept>
 
 namespace runout {
+namespace {
+
+// Per fluid cell, the column blocks o0..kNb-1 around it of the cells `keys` (with particle offsets `begin`) that
+// hold particles, `stride` slots per cell in `blocks`, their number in `count`.
+template <class ImplT, class Block>
+void index_columns(const ImplT& I, const std::vector<uint64_t>& keys, const std::vector<uint32_t>& begin, int o0,
+                   int stride, std::vector<Block>& blocks, std::vector<uint8_t>& count) {
+  const size_t ncells = I.fcell_key.size();
+  blocks.resize(ncells * stride);
+  count.assign(ncells, 0);
+#pragma omp parallel
+  {
+    std::array<size_t, ImplT::kNb> hint{};
+#pragma omp for schedule(static)
+    for (size_t c = 0; c < ncells; ++c) {
+      const auto cc = ImplT::unpack(I.fcell_key[c]);
+      int m = 0;
+      Block blk;
+      for (int o = o0; o < ImplT::kNb; ++o)
+        if (I.column(keys, begin, cc, o, blk, hint[o])) blocks[c * stride + m++] = blk;
+      count[c] = static_cast<uint8_t>(m);
+    }
+  }
+}
+
+}  // namespace
 
 // Sorts fluid particles by cell, removes outflow, and builds the neighbour blocks of every fluid cell and
 // of the boundary cells next to fluid.
@@ -24,7 +50,6 @@ void Solver<D>::sort_and_build_cells() {
 #pragma omp parallel for reduction(+ : removed, wrap_pe)
   for (size_t i = 0; i < n; ++i) {
     Vec<D> p = fluid_.position(i);
-    bool out = false;
     for (int d = 0; d < D; ++d) {
       if (config_.periodic[d]) {
         const real L = I.period[d];
@@ -37,17 +62,14 @@ void Solver<D>::sort_and_build_cells() {
           fluid_.pos[d][i] = p[d];
           if (config_.integrator == Integrator::verlet) pos_saved_[d][i] = p[d];
         }
-      } else if ((p[d] < config_.domain_min[d] && config_.outflow[d][0]) ||
-                 (p[d] > config_.domain_max[d] && config_.outflow[d][1])) {
-        out = true;
       }
     }
-    if (!inlets_.empty() && !is_inlet_buffer(fluid_.tag[i])) out = out || in_inlet_buffer(p);
-    if (!outflow_marked_.empty() && outflow_marked_[i]) out = true;
+    const bool out = removed_at_sort(p, fluid_.tag[i]) || (!outflow_marked_.empty() && outflow_marked_[i]);
     I.sort_buf[i] = {out ? kRemovedKey : Impl::pack(I.coords(p)), static_cast<uint32_t>(i)};
     removed += out ? 1 : 0;
   }
   potential_outflow_ -= wrap_pe;  // keeps PE(t) + potential_outflow_ continuous across a wrap
+  I.candidates_valid = false;
   outflow_marked_.clear();
   std::sort(I.sort_buf.begin(), I.sort_buf.end());
   const size_t keep = n - removed;
@@ -102,34 +124,30 @@ void Solver<D>::sort_and_build_cells() {
     }
   }
   I.fcell_begin.push_back(static_cast<uint32_t>(keep));
-  const size_t ncells = I.fcell_key.size();
-  constexpr int kNb = Impl::kNb;
-  constexpr int kHalf = Impl::kHalf;
-  constexpr int kCentre = kNb / 2;  // the cell's own column
-  I.fnb_half.resize(ncells * kHalf);
-  I.fnb_bound.resize(ncells * kNb);
-  I.fnb_half_n.assign(ncells, 0);
-  I.fnb_bound_n.assign(ncells, 0);
-#pragma omp parallel
-  {
-    std::array<size_t, kNb> fhint{}, bhint{};
-#pragma omp for schedule(static)
-    for (size_t c = 0; c < ncells; ++c) {
-      const auto cc = Impl::unpack(I.fcell_key[c]);
-      int nf = 0, nbnd = 0;
-      typename Impl::Block blk;
-      // Column o has horizontal offsets (o % 5 - 2, o / 5 - 2): o > kCentre is the half after the own column.
-      for (int o = kCentre; o < kNb; ++o)
-        if (I.column(I.fcell_key, I.fcell_begin, cc, o, blk, fhint[o])) I.fnb_half[c * kHalf + nf++] = blk;
-      for (int o = 0; o < kNb; ++o)
-        if (I.column(I.bcell_key, I.bcell_begin, cc, o, blk, bhint[o])) I.fnb_bound[c * kNb + nbnd++] = blk;
-      I.fnb_half_n[c] = static_cast<uint8_t>(nf);
-      I.fnb_bound_n[c] = static_cast<uint8_t>(nbnd);
-    }
-  }
+  // Column o has horizontal offsets (o % 5 - 2, o / 5 - 2): o > kNb / 2 is the half after the own column.
+  index_columns(I, I.fcell_key, I.fcell_begin, Impl::kNb / 2, Impl::kHalf, I.fnb_half, I.fnb_half_n);
+  index_wall_blocks();
 
-  // Boundary cells next to fluid: the only boundary particles that do work this step. Boundary blocks are
-  // runs of whole boundary cells, so mark the cells each run covers.
+  // Work arrays follow the (possibly smaller) particle count.
+  for (int d = 0; d < D; ++d) acc_[d].resize(keep);
+  drho_.resize(keep);
+  pressure_.resize(keep);
+  mu_eff_.resize(keep);
+  shear_rate_.resize(keep);
+  yield_pressure_.resize(keep);
+  for (int d = 0; d < D; ++d) contact_normal_[d].assign(keep, 0);
+  mu_wall_.resize(keep);
+  zero_pressure_.resize(keep);
+}
+
+// The wall columns around each fluid cell, and the wall cells next to fluid: the only wall particles that do
+// work until the next sort. Wall blocks are runs of whole wall cells, so mark the cells each run covers.
+template <int D>
+void Solver<D>::index_wall_blocks() {
+  auto& I = *impl_;
+  constexpr int kNb = Impl::kNb;
+  const size_t ncells = I.fcell_key.size();
+  index_columns(I, I.bcell_key, I.bcell_begin, 0, kNb, I.fnb_bound, I.fnb_bound_n);
   ++I.stamp;
   I.active_bcells.clear();
   for (size_t c = 0; c < ncells; ++c) {
@@ -148,20 +166,37 @@ void Solver<D>::sort_and_build_cells() {
   for (uint32_t cb : I.active_bcells)
     for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b) I.bslot[b] = slot++;
   I.active_boundary_count = slot;
+}
 
-  // Work arrays follow the (possibly smaller) particle count.
-  for (int d = 0; d < D; ++d) acc_[d].resize(keep);
-  drho_.resize(keep);
-  pressure_.resize(keep);
-  mu_eff_.resize(keep);
-  shear_rate_.resize(keep);
-  yield_pressure_.resize(keep);
-  for (int d = 0; d < D; ++d) contact_normal_[d].assign(keep, 0);
-  mu_wall_.resize(keep);
-  zero_pressure_.resize(keep);
+// A particle at p the sort removes: past an open face, or flow back inside an inlet's buffer.
+template <int D>
+bool Solver<D>::removed_at_sort(const Vec<D>& p, uint32_t tag) const {
+  for (int d = 0; d < D; ++d)
+    if (!config_.periodic[d] && ((p[d] < config_.domain_min[d] && config_.outflow[d][0]) ||
+                                 (p[d] > config_.domain_max[d] && config_.outflow[d][1])))
+      return true;
+  return !inlets_.empty() && !is_inlet_buffer(tag) && in_inlet_buffer(p);
+}
+
+// Whether the next sort would wrap or remove fluid particle i.
+template <int D>
+bool Solver<D>::leaves_sorted_cells(size_t i) const {
+  const Vec<D> p = fluid_.position(i);
+  for (int d = 0; d < D; ++d) {
+    if (!config_.periodic[d]) continue;
+    const real x = p[d] - config_.domain_min[d];
+    if (x < 0 || x >= impl_->period[d]) return true;
+  }
+  return removed_at_sort(p, fluid_.tag[i]);
 }
 
 template void Solver<2>::sort_and_build_cells();
 template void Solver<3>::sort_and_build_cells();
+template void Solver<2>::index_wall_blocks();
+template void Solver<3>::index_wall_blocks();
+template bool Solver<2>::removed_at_sort(const Vec<2>&, uint32_t) const;
+template bool Solver<3>::removed_at_sort(const Vec<3>&, uint32_t) const;
+template bool Solver<2>::leaves_sorted_cells(size_t) const;
+template bool Solver<3>::leaves_sorted_cells(size_t) const;
 
 }  // namespace runout

@@ -34,6 +34,7 @@ void check_same_setup(StateReader& in, const SolverConfig& c, size_t materials, 
   if (in.value<real>() != c.smoothing_length) mismatch("smoothing length");
   if (in.value<real>() != c.speed_of_sound) mismatch("speed of sound");
   if (in.value<int>() != static_cast<int>(c.integrator)) mismatch("integrator");
+  if (in.value<real>() != c.neighbour_skin) mismatch("neighbour skin");
   if (in.value<uint64_t>() != materials) mismatch("material count");
   if (in.value<uint64_t>() != described) mismatch("wall particle count");
   if (in.value<int>() != static_cast<int>(source)) mismatch("wall source (walls laid near the flow or whole)");
@@ -46,7 +47,7 @@ void Solver<D>::save_state(StateWriter& out) const {
   const auto& I = *impl_;
   out.label("solver");
   out.value<int>(D), out.value(config_.dp), out.value(config_.smoothing_length), out.value(config_.speed_of_sound);
-  out.value<int>(static_cast<int>(config_.integrator));
+  out.value<int>(static_cast<int>(config_.integrator)), out.value(config_.neighbour_skin);
   out.value<uint64_t>(materials_.size()), out.value<uint64_t>(boundary_described());
   out.value<int>(wall_source_ ? 1 : 0);
   out.value(time_), out.value(steps_), out.value(max_mach_), out.value(min_dt_seen_), out.value(stats_);
@@ -60,6 +61,28 @@ void Solver<D>::save_state(StateWriter& out) const {
   out.label("walls");
   out.values(I.live_tiles);
   out.values(boundary_.id), out.values(boundary_.rho), out.values(boundary_rho_saved_);
+  // The Verlet list's candidates are remade from where the fluid stood at the last sort (the particles are still
+  // in that sort's order), so a resumed run reuses them exactly when the uninterrupted one would.
+  out.label("neighbours");
+  out.value(I.neighbour_rebuilds);
+  const bool kept = I.candidates_valid && I.fluid_at_sort == fluid_.size();
+  out.value<int>(kept ? 1 : 0);
+  if (kept)
+    for (int d = 0; d < D; ++d) out.values(I.pos_at_sort[d]);
+}
+
+// The cells and candidates of the last sort, at the positions it saw.
+template <int D>
+void Solver<D>::restore_neighbour_candidates() {
+  auto& I = *impl_;
+  for (int d = 0; d < D; ++d) std::swap(fluid_.pos[d], I.pos_at_sort[d]);
+  sort_and_build_cells();  // the particles are in this sort's order already: it indexes the cells again
+  const real support = 2.0 * config_.smoothing_length;
+  scan_cells_for_pairs(support + neighbour_skin(), true);
+  for (int d = 0; d < D; ++d) std::swap(fluid_.pos[d], I.pos_at_sort[d]);
+  I.fluid_at_sort = fluid_.size();
+  I.generation_at_sort = boundary_generation_;
+  I.candidates_valid = true;
 }
 
 template <int D>
@@ -91,11 +114,25 @@ void Solver<D>::load_state(StateReader& in) {
   in.values(boundary_.rho), in.values(boundary_rho_saved_);
   if (boundary_.rho.size() != ids.size() || boundary_rho_saved_.size() != ids.size())
     in.fail("has wall densities of the wrong length");
+
+  in.expect("neighbours");
+  auto& I = *impl_;
+  in.value(I.neighbour_rebuilds);
+  I.candidates_valid = false;
+  if (in.value<int>() == 1) {
+    for (int d = 0; d < D; ++d) {
+      in.values(I.pos_at_sort[d]);
+      if (I.pos_at_sort[d].size() != fluid_.size()) in.fail("has neighbour-list positions of the wrong length");
+    }
+    restore_neighbour_candidates();
+  }
 }
 
 template void Solver<2>::save_state(StateWriter&) const;
 template void Solver<3>::save_state(StateWriter&) const;
 template void Solver<2>::load_state(StateReader&);
 template void Solver<3>::load_state(StateReader&);
+template void Solver<2>::restore_neighbour_candidates();
+template void Solver<3>::restore_neighbour_candidates();
 
 }  // namespace runout

@@ -121,7 +121,7 @@ void Solver<D>::evaluate(bool compute_dt) {
   bool viscous = false;
   for (const auto& r : rheologies_) viscous = viscous || !r->is_inviscid();
   update_fluid_state();
-  with_kernel<D>(config_.kernel, h, [&](auto kernel) { build_pair_lists(kernel.support()); });
+  with_kernel<D>(config_.kernel, h, [&](auto kernel) { update_pair_lists(kernel.support()); });
 
   const PassContext<D> c = pass_context();
   const TaitEOS eos_b(c0, config_.boundary_density, config_.eos_gamma);

@@ -81,10 +81,25 @@ struct Solver<D>::Impl {
   std::vector<Block> fnb_half;
   std::vector<uint8_t> fnb_half_n;
 
-  // Pair lists (see evaluate), per thread, and per fluid particle where its list is.
-  std::vector<std::vector<uint32_t>> list_buf;
-  std::vector<uint32_t> list_off, list_nf, list_nb;
-  std::vector<uint16_t> list_thread;
+  // Pair lists (pair_lists.cpp), per thread, and per fluid particle where its list is: the pairs inside the
+  // support at this evaluation, each fluid pair once, in the order a fresh scan of the cells would list them.
+  struct PairLists {
+    std::vector<std::vector<uint32_t>> buf;
+    std::vector<uint32_t> off, nf, nb;
+    std::vector<uint16_t> thread;
+    const uint32_t* of(uint32_t i) const { return buf[thread[i]].data() + off[i]; }
+  };
+  PairLists lists;
+  // With a skin (SolverConfig::neighbour_skin > 0): the candidates within support + skin when the cells were
+  // last sorted, kept until a particle may have moved half the skin (Solver::neighbour_lists_due); each
+  // evaluation keeps those now inside the support. Where the fluid was at that sort, and what else the
+  // candidates depend on.
+  PairLists candidates;
+  bool candidates_valid = false;
+  std::array<std::vector<real>, D> pos_at_sort;
+  size_t fluid_at_sort = 0;
+  uint64_t generation_at_sort = 0;
+  long neighbour_rebuilds = 0;
   // Per-thread accumulators of the pair passes.
   std::vector<std::vector<real>> acc_f, acc_b;
   // Per particle, once per evaluation rather than per pair: volume m / rho and p / rho^2 (fluid; boundary:
@@ -117,7 +132,7 @@ struct Solver<D>::Impl {
   std::vector<uint32_t> scratch_u32;
   std::vector<uint16_t> scratch_u16;
 
-  const uint32_t* list_of(uint32_t i) const { return list_buf[list_thread[i]].data() + list_off[i]; }
+  const uint32_t* list_of(uint32_t i) const { return lists.of(i); }
 
   // The fluid particles, cell by cell, shared among the threads of the enclosing parallel region.
   template <class F>

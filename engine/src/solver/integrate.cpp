@@ -16,8 +16,9 @@ template <int D>
 const StepStats& Solver<D>::step() {
   auto& I = *impl_;
   if (wall_source_) refresh_wall_tiles(false);
-  sort_and_build_cells();
+  // The inlets' state first: the neighbour lists' reach depends on the speeds.
   if (!inlets_.empty()) impose_inlet_state();
+  if (neighbour_lists_due()) sort_and_build_cells();
   evaluate(true);
   const real dt = stats_.dt;
   const size_t n = fluid_.size();

@@ -32,6 +32,9 @@ const std::vector<ParameterSpec>& numerics_parameters() {
       {"min_dt", "s", 1e-8, 0.0, 1.0, true, false, false, "a time step below this stops the run"},
       {"max_dilatancy", "", 0.0, 0.0, 0.5, false, false, false,
        "with density_floor: the floor stands this fraction under the tension-floor density"},
+      {"neighbour_skin", "", 0.3, 0.0, 1.0, false, false, false,
+       "Verlet-list skin as a fraction of h: pair candidates within 2h + skin are kept until a pair may have "
+       "closed in by the skin (0: the cells are scanned at every force evaluation)"},
   };
   return specs;
 }

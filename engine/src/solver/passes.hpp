@@ -43,7 +43,7 @@ void velocity_gradient_pass(const PassContext<D>& c, const Kernel& kernel, ImplT
           real div = 0, diff = 0, pw = 0, ww = 0;
           Mat<D> L = Mat<D>::Zero();
           const uint32_t* list = I.list_of(i);
-          const uint32_t nfl = I.list_nf[i], nbl = I.list_nb[i];
+          const uint32_t nfl = I.lists.nf[i], nbl = I.lists.nb[i];
           prepare_pairs(c, kernel, G, xi, rhoi, list, nfl, nbl);
           for (uint32_t q = 0; q < nfl; ++q) {
             const uint32_t j = list[q];
@@ -152,7 +152,7 @@ void momentum_pass(const PassContext<D>& c, const Kernel& kernel, ImplT& I, size
           const real friction_i = kViscous ? c.wall_friction[c.mat[i]] : 0.0;
           real visc_max = 0, div = 0, diff = 0;
           const uint32_t* list = I.list_of(i);
-          const uint32_t nfl = I.list_nf[i], nbl = I.list_nb[i];
+          const uint32_t nfl = I.lists.nf[i], nbl = I.lists.nb[i];
           prepare_pairs(c, kernel, G, xi, c.rho[i], list, nfl, nbl);
           Vec<D> a = momentum_fluid_pairs<kViscous, kS2, kAcc>(c, G, list, nfl, i, vi, div, diff, visc_max, A);
           typename Pairs::Contact w;

@@ -76,6 +76,8 @@ Solver<D>::Solver(SceneSetup<D> setup)
   for (const auto& m : materials_) rheologies_.push_back(make_rheology(m));
   for (uint32_t id : fluid_.id) next_id_ = std::max(next_id_, id + 1);
   create_inlet_buffers();
+  if (!(config_.neighbour_skin >= 0 && config_.neighbour_skin <= 1))
+    throw std::invalid_argument("numerics.neighbour_skin: must be between 0 and 1 (a fraction of h)");
   for (int d = 0; d < D && wall_source_; ++d)
     if (config_.periodic[d]) throw std::invalid_argument("domain.periodic: a scene with a wall source cannot be periodic");
 
@@ -90,15 +92,21 @@ Solver<D>::Solver(SceneSetup<D> setup)
     max_viscosity_ = config_.viscosity_cap_factor * 0.125 * h * rho_min * config_.speed_of_sound / config_.cfl;
   }
 
-  // Grid: cells of size h (half the support); a periodic axis gets a whole number (>= 5) of cells.
+  // Grid: cells of half the reach (the support and the neighbour skin), searched two cells each way; a periodic
+  // axis gets a whole number (>= 5) of cells, so a short one takes a smaller skin (none at 5h).
   for (int d = 0; d < D; ++d) {
-    I.cell_size[d] = 0.5 * support;
+    const real most = (2.0 * (config_.domain_max[d] - config_.domain_min[d]) / 5 * (1 - 1e-9) - support) / h;
+    if (config_.periodic[d]) config_.neighbour_skin = std::max<real>(0, std::min(config_.neighbour_skin, most));
+  }
+  const real reach = support + neighbour_skin();
+  for (int d = 0; d < D; ++d) {
+    I.cell_size[d] = 0.5 * reach;
     I.origin[d] = 0.0;
     I.period[d] = 0.0;
     if (config_.periodic[d]) {
       if (d == D - 1) throw std::invalid_argument("domain.periodic: the vertical axis cannot be periodic");
       const real L = config_.domain_max[d] - config_.domain_min[d];
-      const int64_t n = static_cast<int64_t>(std::floor(L / (0.5 * support)));
+      const int64_t n = static_cast<int64_t>(std::floor(L / (0.5 * reach)));
       if (n < 2 * Impl::kReach + 1)
         throw std::invalid_argument("domain.periodic: a periodic axis must be at least 5h long");
       I.periodic_cells[d] = n;

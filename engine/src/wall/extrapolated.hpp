@@ -27,8 +27,8 @@ struct extrapolated {
         n, 0, 2,
         [&](real*, real* Bacc, auto&) {
           I.for_each_fluid([&](uint32_t i) {
-            const uint32_t* L = I.list_of(i) + I.list_nf[i];
-            for (uint32_t q = 0; q < I.list_nb[i]; ++q) {
+            const uint32_t* L = I.list_of(i) + I.lists.nf[i];
+            for (uint32_t q = 0; q < I.lists.nb[i]; ++q) {
               const uint32_t b = L[q];
               real r2 = 0, gdx = 0, gn = 0, ndx = 0, nn = 0;
               for (int d = 0; d < D; ++d) {

@@ -156,6 +156,7 @@ void read_numerics(Build<D>& b) {
   cfg.viscosity_cap_factor = numeric("viscosity_cap_factor");
   cfg.shear_rate_floor = numeric("shear_rate_floor");
   cfg.min_dt = numeric("min_dt");
+  cfg.neighbour_skin = numeric("neighbour_skin");
   const bool granular = has_granular_material(b);
   cfg.density_floor = num.boolean_or("density_floor", granular && GranularDefaults::density_floor);
   cfg.max_dilatancy =

@@ -47,6 +47,9 @@ struct SolverConfig {
   real viscosity_cap_factor = 1.0;
   real shear_rate_floor = 1e-6;     // [1/s]
   real min_dt = 1e-8;               // a step below this stops the run [s]
+  // Verlet-list skin as a fraction of h: the cells are sorted and scanned for pair candidates within
+  // 2h + skin, kept until a pair may have closed in by the skin; 0 scans them at every evaluation.
+  real neighbour_skin = 0.3;
   // Keep a material's fluid density at or above the density where the equation of state reaches its tension
   // floor (rho0 for cohesionless friction-HBP; liquids, without a floor, are untouched): see step().
   bool density_floor = false;
@@ -231,6 +234,12 @@ class Solver {
   EnergySummary energy() const;
   real max_mach() const { return max_mach_; }
   real min_dt_seen() const { return min_dt_seen_; }
+  // How often the cells were scanned for pairs: every evaluation without a neighbour skin, after each sort
+  // with one.
+  long neighbour_list_builds() const;
+  // The pairs within the kernel support at the current positions that the next step's first evaluation would
+  // miss (a brute-force check of the Verlet-list bookkeeping, for tests): 0 unless it is wrong.
+  size_t missing_neighbour_pairs() const;
 
   // The run's state (particles, the wall tiles alive and the walls' densities, balances, clocks), for a
   // checkpoint (solver/checkpoint.cpp): load_state on a solver built from the same setup continues exactly as
@@ -287,6 +296,17 @@ class Solver {
   real kinetic_inflow_ = 0;
 
   void sort_and_build_cells();
+  bool removed_at_sort(const Vec<D>& p, uint32_t tag) const;
+  bool leaves_sorted_cells(size_t i) const;
+  // pair_lists.cpp: the pair lists of an evaluation, from the cells or from the candidates of the last sort.
+  real neighbour_skin() const { return config_.neighbour_skin * config_.smoothing_length; }
+  bool neighbour_lists_due() const;
+  void update_pair_lists(real support);
+  void scan_cells_for_pairs(real radius, bool into_candidates);
+  void keep_pairs_in_support(real support);
+  void rescan_at_sort();
+  void index_wall_blocks();  // cells.cpp
+  void restore_neighbour_candidates();  // checkpoint.cpp
   // wall_tiles.cpp: lays the wall source's tiles the flow needs (all of them missing or `force`), drops those
   // it left, and sorts the boundary by cell.
   void refresh_wall_tiles(bool force);
@@ -298,7 +318,6 @@ class Solver {
   // One force evaluation (forces.cpp) and its steps.
   void evaluate(bool compute_dt);
   void update_fluid_state();              // EOS, per-particle volumes and the neighbour pack
-  void build_pair_lists(real support);    // pair_lists.cpp
   void update_wall_volumes();             // m / rho and p / rho^2 of the active wall particles
   solver_detail::PassContext<D> pass_context();
   void apply_rheology();                  // rheology.cpp: mu_eff per material batch, capped
