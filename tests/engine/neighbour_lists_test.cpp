@@ -84,6 +84,10 @@ Outcome run(Case c, double skin, double seconds) {
 
 }  // namespace
 
+// The limits on the scan count follow from the rebuild rule, not from a run: at Mach <= 0.1 and cfl 0.2 a particle
+// moves at most 0.02 h a step, so candidates with a 0.3 h skin last at least (0.15 - 0.01) / 0.02 = 7 steps for
+// the fastest pair (fewer than half the steps scanned); and a front that runs ~0.7 m moves ~90 skins (0.0078 m),
+// so the cells must be sorted again many times (more than 5).
 // The column collapses, runs along the bed at up to ~2.5 m/s and splashes up the far wall in 0.6 s.
 TEST(NeighbourLists, ACollapsingColumnKeepsEveryPairInsideTheSupport) {
   const Outcome o = run(Case::closed_box, 0.3, 0.6);
