@@ -765,7 +765,8 @@ json settings_metrics(const Solver<D>& solver) {
           {"cfl", cfg.cfl},
           {"artificial_viscosity", cfg.artificial_viscosity},
           {"density_diffusion_delta", cfg.density_diffusion_delta},
-          {"viscosity_cap_pa_s", solver.max_viscosity()},
+          {"viscosity", viscous_step_names()[static_cast<size_t>(cfg.viscous_step)]},
+          {"viscosity_cap_pa_s", std::isfinite(solver.max_viscosity()) ? json(solver.max_viscosity()) : json(nullptr)},
           {"shear_rate_floor_1_s", cfg.shear_rate_floor},
           {"density_floor", cfg.density_floor},
           {"max_dilatancy", cfg.max_dilatancy},
@@ -846,6 +847,12 @@ json run_metrics(const Scene& scene, const Solver<D>& solver, const RunSummary& 
   m["final_speed"] = final_speed_metrics(solver.fluid());
   m["final_density_ratio"] = final_density_metrics(solver);
   m["settings"] = settings_metrics(solver);
+  if (const ViscousSolveSummary& v = solver.viscous_solves(); v.solves > 0)
+    m["viscous_solves"] = {{"solves", v.solves},
+                           {"iterations_mean", static_cast<double>(v.iterations) / v.solves},
+                           {"iterations_max", v.max_iterations},
+                           {"unconverged_steps", v.unconverged},
+                           {"residual_max", v.max_residual}};
   json tags = json::object();
   for (size_t k = 1; k < scene.boundary_tags.size(); ++k) tags[std::to_string(k)] = scene.boundary_tags[k];
   m["boundary_tags"] = tags;

@@ -169,6 +169,7 @@ json numerics_schema() {
   json props = {{"kernel", {{"enum", kernel_names()}}},
                 {"integrator", {{"enum", integrator_names()}}},
                 {"density_diffusion", {{"enum", density_diffusion_names()}}},
+                {"viscosity", {{"enum", viscous_step_names()}}},
                 {"boundary_pressure", {{"enum", boundary_pressure_names()}}},
                 {"density_floor", {{"type", "boolean"}}}};
   // A default that depends on the scene (text with a ';') is stated in the description, not as "default".

@@ -14,9 +14,10 @@
 //    holding the column's area (0.02 m^2) it ends at x_f = (3 A / (2 sqrt(2 tau_y / (rho g))))^(2/3) = 0.319 m;
 //    5 % below that is allowed for the shallow-layer approximation at the steep toe;
 //  * no leak, mass exact, Mach number under 0.1;
-//  * the frictional deposit's bulk is the experiment's: where it thins to 1 cm within 2 dp of where the
-//    experiment's does (0.368 m; the surface is resolved to a particle), and its height profile within 1 cm
-//    rms of the experiment's (10 % of the column's height). Not its front particle: a one-particle sheet
+//  * the frictional deposit's bulk is the experiment's, at the product's default numerics (the implicit viscous
+//    step, no cap): where it thins to 1 cm and its height at the wall each within 10 % of the experiment's
+//    (0.368 m, 0.099 m; the aim issue 43 declared before the implicit step was built), and its height profile
+//    within 1 cm rms of the experiment's (10 % of the column's height). Not its front particle: a one-particle sheet
 //    (5 mm) runs on ahead of the bulk (0.52 m against the experiment's last 1.5 mm of deposit at 0.44 m),
 //    reported in docs/validation.md.
 // Not asserted: the thesis' statement that the plain HBP material "runs farther and flatter". With the yield
@@ -206,8 +207,9 @@ TEST(ColumnCollapseValidation, FrictionColumnComesToRestOnItsOwn) {
   const Deposit fr = run("column_collapse_2d.json", "column_collapse_2d");
   print("friction-HBP (phi = 19.8 deg)", fr);
   expect_run_ok_and_at_rest(fr, probe.dp);
-  EXPECT_NEAR(extent_at_depth(fr.surface, 0.01), extent_at_depth(kBuiSurface, 0.01), 2 * probe.dp)
-      << "where the deposit thins to 1 cm";
+  const double extent = extent_at_depth(kBuiSurface, 0.01), wall = kBuiSurface.front().second;
+  EXPECT_NEAR(extent_at_depth(fr.surface, 0.01), extent, 0.1 * extent) << "where the deposit thins to 1 cm";
+  EXPECT_NEAR(fr.wall_height, wall, 0.1 * wall) << "the deposit's height at the wall";
   EXPECT_LT(rms_against_experiment(fr.surface), 0.01) << "rms height difference to the experiment";
 }
 

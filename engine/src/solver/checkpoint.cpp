@@ -1,7 +1,8 @@
 // The solver's state for a checkpoint (solver.hpp, save_state / load_state). What a step reads of the past is
 // saved: the particles in their current order (the cell sort breaks ties by it), the integrator's previous
 // values (Verlet), the wall tiles alive and every wall particle's density, the balances and the last step's
-// statistics (the wall tiles' reach uses its speed). Everything else a step recomputes.
+// statistics (the wall tiles' reach uses its speed) and the implicit viscous solves' counts. Everything else a
+// step recomputes.
 #include <stdexcept>
 
 #include "impl.hpp"
@@ -51,6 +52,7 @@ void Solver<D>::save_state(StateWriter& out) const {
   out.value<uint64_t>(materials_.size()), out.value<uint64_t>(boundary_described());
   out.value<int>(wall_source_ ? 1 : 0);
   out.value(time_), out.value(steps_), out.value(max_mach_), out.value(min_dt_seen_), out.value(stats_);
+  out.value(viscous_summary_);
   out.values(mass_.initial), out.values(mass_.current), out.values(mass_.outflow), out.values(mass_.inflow);
   out.value(potential_initial_), out.value(potential_outflow_), out.value(kinetic_inflow_), out.value(next_id_);
   out.value<uint64_t>(boundary_peak_), out.value(boundary_generation_);
@@ -90,6 +92,7 @@ void Solver<D>::load_state(StateReader& in) {
   in.expect("solver");
   check_same_setup<D>(in, config_, materials_.size(), boundary_described(), wall_source_ != nullptr);
   in.value(time_), in.value(steps_), in.value(max_mach_), in.value(min_dt_seen_), in.value(stats_);
+  in.value(viscous_summary_);
   in.values(mass_.initial), in.values(mass_.current), in.values(mass_.outflow), in.values(mass_.inflow);
   in.value(potential_initial_), in.value(potential_outflow_), in.value(kinetic_inflow_), in.value(next_id_);
   boundary_peak_ = in.value<uint64_t>();

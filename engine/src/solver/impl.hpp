@@ -100,6 +100,11 @@ struct Solver<D>::Impl {
   size_t fluid_at_sort = 0;
   uint64_t generation_at_sort = 0;
   long neighbour_rebuilds = 0;
+  // The implicit viscous step's pair weights (implicit_viscosity.cpp), laid out as lists.buf.
+  std::vector<std::vector<real>> visc_pair;
+  // Per fluid particle, the friction drag of the implicit step and its wall normal (pass_context.hpp).
+  std::vector<real> friction_drag;
+  std::array<std::vector<real>, D> friction_normal;
   // Per-thread accumulators of the pair passes.
   std::vector<std::vector<real>> acc_f, acc_b;
   // Per particle, once per evaluation rather than per pair: volume m / rho and p / rho^2 (fluid; boundary:

@@ -28,6 +28,10 @@ const std::vector<ParameterSpec>& numerics_parameters() {
       {"speed_of_sound_beta", "", 10.0, 1.0, 100.0, false, false, false, "beta in the default c0 = beta sqrt(g H)"},
       {"viscosity_cap_factor", "", 1.0, 0.0, 1e6, true, false, false,
        "with viscosity_cap auto: cap = factor x 0.125 h rho_min c0 / cfl"},
+      {"viscous_tolerance", "", 1e-6, 0.0, 0.1, true, false, false,
+       "implicit viscosity: CG stops at this relative residual (M^-1-weighted)"},
+      {"viscous_max_iterations", "", 1000, 1, 1e5, false, false, false,
+       "implicit viscosity: CG iterations at most per step", true},
       {"shear_rate_floor", "1/s", 1e-6, 0.0, 1e3, true, false, false, "floor on the shear-rate magnitude"},
       {"min_dt", "s", 1e-8, 0.0, 1.0, true, false, false, "a time step below this stops the run"},
       {"max_dilatancy", "", 0.0, 0.0, 0.5, false, false, false,
@@ -48,6 +52,10 @@ const ParameterSpec& numerics_parameter(const std::string& key) {
 // In the enums' order.
 const std::vector<std::string>& integrator_names() {
   static const std::vector<std::string> names = {"symplectic", "verlet"};
+  return names;
+}
+const std::vector<std::string>& viscous_step_names() {
+  static const std::vector<std::string> names = {"explicit", "implicit"};
   return names;
 }
 const std::vector<std::string>& density_diffusion_names() {
@@ -71,6 +79,9 @@ Integrator integrator_from_name(const std::string& name) {
 }
 DensityDiffusion density_diffusion_from_name(const std::string& name) {
   return from_name<DensityDiffusion>(name, density_diffusion_names(), "density diffusion");
+}
+ViscousStep viscous_step_from_name(const std::string& name) {
+  return from_name<ViscousStep>(name, viscous_step_names(), "viscous step");
 }
 BoundaryPressure boundary_pressure_from_name(const std::string& name) {
   return from_name<BoundaryPressure>(name, boundary_pressure_names(), "boundary pressure");

@@ -29,6 +29,7 @@ struct PassContext {
   real ddt_coef;    // 2 delta h c0, or 0 without density diffusion
   bool fourtakas;   // density diffusion with the hydrostatic correction
   bool any_periodic;
+  bool explicit_viscosity;  // the viscous terms in the momentum pass (false: the implicit step carries them)
   Vec<D> g, period;
   const real* rho0;           // per material
   const real* wall_friction;  // per material
@@ -47,6 +48,10 @@ struct PassContext {
   // the shear rate, the acceleration and the wall normal of particles in wall contact (else 0).
   real *drho, *boundary_drho, *yield_pressure, *shear_rate;
   std::array<real*, D> acc, contact_normal;
+  // Implicit viscous step: the basal Coulomb friction as a drag coefficient k (per unit mass, along the wall's
+  // tangent plane, normal n), lagged from this evaluation's slip, for the solve to apply (0: none).
+  real* friction_drag;
+  std::array<real*, D> friction_normal;
 
   // Density diffusion of one same-material fluid pair: the term for i is -dr F V_j, for j +dr F V_i.
   // Fourtakas et al. (2019) subtract the hydrostatic density difference, linearised:

@@ -122,8 +122,8 @@ Vec<D> momentum_fluid_pairs(const PassContext<D>& c, const PairGeometry<D>& G, c
     Vec<D> s = (-pterm * F) * dx;
     if constexpr (kViscous) {
       // Morris et al. (1997): (mu_i + mu_j) / (rho_i rho_j) (r_ij . grad W) / (r^2 + eta^2) v_ij,
-      // r_ij . grad W = F r^2 (F < 0: the pair force opposes v_ij).
-      s += ((mui + pk[PK::kPm]) * c.inv_rho[i] * pk[PK::kInvRho] * F * r2 * inv_e) * vij;
+      // r_ij . grad W = F r^2 (F < 0: the pair force opposes v_ij). The implicit step uses the same weights.
+      if (c.explicit_viscosity) s += ((mui + pk[PK::kPm]) * c.inv_rho[i] * pk[PK::kInvRho] * F * r2 * inv_e) * vij;
     }
     a += mj * s;
     for (int d = 0; d < D; ++d) A[j * kS + (kAcc + d)] -= mi_mass * s[d];

@@ -83,9 +83,14 @@ Solver<D>::Solver(SceneSetup<D> setup)
 
   const real h = config_.smoothing_length;
   const real support = 2.0 * h;
-  // Auto viscosity cap: the mu_eff at which the viscous limit 0.125 h^2 rho / mu equals cfl h / c0.
+  if (config_.viscous_step == ViscousStep::implicit && config_.integrator != Integrator::symplectic)
+    throw std::invalid_argument("numerics.viscosity: implicit needs the symplectic integrator (accepted: symplectic)");
+  // Auto viscosity cap: the mu_eff at which the viscous limit 0.125 h^2 rho / mu equals cfl h / c0. The implicit
+  // step needs none: only a cap the scene gives in Pa s applies there.
   if (config_.max_viscosity > 0) {
     max_viscosity_ = config_.max_viscosity;
+  } else if (config_.viscous_step == ViscousStep::implicit) {
+    max_viscosity_ = std::numeric_limits<real>::infinity();
   } else {
     real rho_min = 1e300;
     for (const auto& m : materials_) rho_min = std::min(rho_min, m.density);

@@ -76,7 +76,8 @@ struct ParticleWall {
       const Vec<D> push = (-mb * pterm * F) * dx;
       a += push;
       w.push += push;
-      if constexpr (kViscous) a += (mb * 2.0 * mu_wall_i * c.inv_rho[i] / rhob * F * r2 * inv_e) * vi;
+      if constexpr (kViscous)
+        if (c.explicit_viscosity) a += (mb * 2.0 * mu_wall_i * c.inv_rho[i] / rhob * F * r2 * inv_e) * vi;
       w.contact = w.contact || r2 < c.contact2;
       w.normal -= (c.bvol[b] * F) * dx;
     }
@@ -94,7 +95,14 @@ struct ParticleWall {
         const Vec<D> nrm = w.push / push;
         const Vec<D> vt = vi - vi.dot(nrm) * nrm;
         const real vts = vt.norm();
-        if (vts > 0) a -= (friction_i * push * -std::expm1(-vts / c.v_slip) / vts) * vt;
+        // The secant drag of the regularised law, mu N (1 - exp(-|v_t| / v_slip)) / |v_t| (mu N / v_slip at rest).
+        const real drag = vts > 0 ? friction_i * push * -std::expm1(-vts / c.v_slip) / vts : friction_i * push / c.v_slip;
+        if (c.explicit_viscosity) {
+          a -= drag * vt;
+        } else {
+          c.friction_drag[i] = drag;
+          for (int d = 0; d < D; ++d) c.friction_normal[d][i] = nrm[d];
+        }
       }
     }
     const real nn = w.normal.norm();

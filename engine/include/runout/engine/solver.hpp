@@ -23,6 +23,10 @@ namespace runout {
 
 enum class Integrator { symplectic, verlet };
 enum class DensityDiffusion { none, molteni, fourtakas };
+// How the viscous stress is integrated: explicitly in the momentum pass, with mu_eff capped so that the viscous
+// time-step limit stays near the acoustic one, or by a backward-Euler step solved with conjugate gradients after
+// the corrector (implicit_viscosity.cpp), with mu_eff uncapped unless the scene sets a cap in Pa s.
+enum class ViscousStep { explicit_capped, implicit };
 
 // Wall contact: a fluid particle closer than kWallContact dp to a wall particle loses the velocity component
 // towards the wall. A resting particle sits dp above the bed lattice and 0.9 dp from the next terrain column's
@@ -46,6 +50,11 @@ struct SolverConfig {
   real max_viscosity = 0.0;
   real viscosity_cap_factor = 1.0;
   real shear_rate_floor = 1e-6;     // [1/s]
+  ViscousStep viscous_step = ViscousStep::explicit_capped;
+  // Implicit step: CG stops when the M^-1-weighted residual is under this fraction of the right-hand side's
+  // (docs/design.md, "Implicit viscous step"), or after viscous_max_iterations.
+  real viscous_tolerance = 1e-6;
+  int viscous_max_iterations = 1000;
   real min_dt = 1e-8;               // a step below this stops the run [s]
   // Verlet-list skin as a fraction of h: the cells are sorted and scanned for pair candidates within
   // 2h + skin, kept until a pair may have closed in by the skin; 0 scans them at every evaluation.
@@ -75,8 +84,10 @@ const ParameterSpec& numerics_parameter(const std::string& key);
 // The named choices of the numerics, by the names a scene gives them.
 const std::vector<std::string>& integrator_names();
 const std::vector<std::string>& density_diffusion_names();
+const std::vector<std::string>& viscous_step_names();
 Integrator integrator_from_name(const std::string& name);
 DensityDiffusion density_diffusion_from_name(const std::string& name);
+ViscousStep viscous_step_from_name(const std::string& name);
 
 namespace solver_detail {
 template <int D>
@@ -171,6 +182,14 @@ struct StepStats {
   real max_speed = 0;
   real max_effective_viscosity = 0;
   size_t active_boundary = 0;  // boundary particles that did work this step
+  int viscous_iterations = 0;  // implicit viscous step: CG iterations this step
+  real viscous_residual = 0;   // and the relative residual it stopped at
+};
+
+// The implicit viscous step over a run: how hard the solves were (one at the predictor, one at the corrector).
+struct ViscousSolveSummary {
+  long solves = 0, iterations = 0, max_iterations = 0, unconverged = 0;  // two solves a step
+  real max_residual = 0;
 };
 
 // Flow mass per material: current = initial + inflow - outflow (inlet buffers are not flow until they
@@ -234,6 +253,7 @@ class Solver {
   EnergySummary energy() const;
   real max_mach() const { return max_mach_; }
   real min_dt_seen() const { return min_dt_seen_; }
+  const ViscousSolveSummary& viscous_solves() const { return viscous_summary_; }
   // How often the cells were scanned for pairs: every evaluation without a neighbour skin, after each sort
   // with one.
   long neighbour_list_builds() const;
@@ -290,6 +310,7 @@ class Solver {
   real max_mach_ = 0;
   real min_dt_seen_ = 1e300;
   StepStats stats_;
+  ViscousSolveSummary viscous_summary_;
   MassBalance mass_;
   real potential_initial_ = 0;
   real potential_outflow_ = 0;  // PE(0) contribution of removed particles at their removal point
@@ -322,6 +343,8 @@ class Solver {
   solver_detail::PassContext<D> pass_context();
   void apply_rheology();                  // rheology.cpp: mu_eff per material batch, capped
   void set_time_step(bool viscous);       // from the evaluation's maxima
+  bool implicit_viscosity() const;        // a viscous scene with numerics.viscosity implicit
+  void implicit_viscous_step(real dt);    // implicit_viscosity.cpp: backward Euler on the fluid velocities
   void check_state();
   real potential_energy() const;
   void create_inlet_buffers();
