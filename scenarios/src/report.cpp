@@ -16,6 +16,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "runout/common/base64.hpp"
 #include "runout/scenarios/decision_metrics.hpp"
 #include "runout/scenarios/scene_map.hpp"
 #include "runout/scenarios/tradeoff.hpp"
@@ -52,22 +53,6 @@ std::string fmt(double v, const char* f = "%.4g") {
 
 // A value as JSON writes it: the shortest text that reads back as the same double (data-value attributes).
 std::string exact(double v) { return json(v).dump(); }
-
-std::string base64(const std::string& bytes) {
-  static const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((bytes.size() + 2) / 3 * 4);
-  for (size_t i = 0; i < bytes.size(); i += 3) {
-    uint32_t n = static_cast<uint32_t>(static_cast<unsigned char>(bytes[i])) << 16;
-    if (i + 1 < bytes.size()) n |= static_cast<uint32_t>(static_cast<unsigned char>(bytes[i + 1])) << 8;
-    if (i + 2 < bytes.size()) n |= static_cast<unsigned char>(bytes[i + 2]);
-    out += abc[(n >> 18) & 63];
-    out += abc[(n >> 12) & 63];
-    out += i + 1 < bytes.size() ? abc[(n >> 6) & 63] : '=';
-    out += i + 2 < bytes.size() ? abc[n & 63] : '=';
-  }
-  return out;
-}
 
 std::string read_bytes(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -435,7 +420,7 @@ std::string map_figure(const Layout& l) {
   auto py = [&](double y) { return (ext->north - y) / ext->dy * f; };
   std::ostringstream s;
   s << "<figure class=\"map\"><div class=\"mapbox\"><img alt=\"maximum flow depth of " << html_escape(l.run.label)
-    << "\" src=\"data:image/png;base64," << base64(read_bytes(png)) << "\"><svg viewBox=\"0 0 " << W << ' ' << H
+    << "\" src=\"data:image/png;base64," << base64_encode(read_bytes(png)) << "\"><svg viewBox=\"0 0 " << W << ' ' << H
     << "\" preserveAspectRatio=\"none\" style=\"font-size:" << fs_px << "px\">";
   try {  // names over the outlines the PNG draws; a scene whose geometry cannot be read again shows none
     const SceneMap m = scene_map(l.manifest.at("scene").dump());
