@@ -718,7 +718,12 @@ StudyReportInput sweep_report_input(const RunStore& store, const std::string& sw
 
 void write_study_report(const RunStore& store, const std::string& sweep, const std::string& baseline,
                         const fs::path& runs_root, const fs::path& out_path) {
-  const std::string html = study_report_html(store, sweep_report_input(store, sweep, baseline, runs_root));
+  const StudyReportInput input = sweep_report_input(store, sweep, baseline, runs_root);
+  // A mistyped --runs would otherwise give a page of "No map" and exit 0.
+  if (!fs::is_directory(runs_root / sweep))
+    throw std::invalid_argument("--runs: no folder " + (runs_root / sweep).string() + " (runout sweep --out RUNS writes "
+                                "each layout of sweep '" + sweep + "' to RUNS/" + sweep + "/<variant>)");
+  const std::string html = study_report_html(store, input);
   if (out_path.has_parent_path()) fs::create_directories(out_path.parent_path());
   const fs::path tmp = out_path.string() + ".tmp";
   {

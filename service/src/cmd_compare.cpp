@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 
 #include <nlohmann/json.hpp>
@@ -167,6 +168,10 @@ bool sweep_runs(const RunStore& store, const CompareArgs& a, int64_t& base, std:
 }  // namespace
 
 int compare(const CompareArgs& a) {
+  if (!std::filesystem::exists(a.db)) {  // RunStore would create an empty store at a mistyped path
+    spdlog::error("compare: --db: no run store at {}", a.db);
+    return 2;
+  }
   try {
     RunStore store(a.db);
     std::vector<int64_t> runs = a.ids;

@@ -240,7 +240,20 @@ TEST_F(Cli, ReportWritesTheSweepsPageAndRefusesWhatItCannotFind) {
   EXPECT_FALSE(fs::exists(dir_ / "none.db"));
   EXPECT_EQ(run("report --db " + q(db)), 2);
   EXPECT_NE(output().find("--sweep is required"), std::string::npos) << output();
+  // A mistyped --runs: refused, naming the folder it looked for, rather than a page of "No map".
+  EXPECT_EQ(run("report --sweep cli-sweep --db " + q(db) + " --runs " + q(dir_ / "rusn") + " --out " + q(out)), 2);
+  EXPECT_NE(output().find("--runs: no folder " + (dir_ / "rusn" / "cli-sweep").string()), std::string::npos) << output();
   EXPECT_FALSE(fs::exists(out));
+}
+
+// `compare --db` at a mistyped path is refused (exit 2, naming the path) and creates nothing there.
+TEST_F(Cli, CompareRefusesAStoreThatIsNotThere) {
+  const fs::path wrong = dir_ / "runuot.db";
+  EXPECT_EQ(run("compare --sweep flume-C0-C7 --db " + q(wrong)), 2);
+  EXPECT_NE(output().find("--db: no run store at " + wrong.string()), std::string::npos) << output();
+  EXPECT_FALSE(fs::exists(wrong));
+  EXPECT_EQ(run("compare --runs 1 2 --db " + q(wrong)), 2);
+  EXPECT_FALSE(fs::exists(wrong));
 }
 
 TEST_F(Cli, RunRefusesFidelityAndDpTogether) {
