@@ -77,6 +77,8 @@ class Cli : public ::testing::Test {
   fs::path dir_;
 };
 
+std::vector<std::string> csv_fields(const std::string& line);
+
 // A tiny valid scene: 10 x 10 water particles in a tank, 5 ms.
 json good_scene() {
   return json::parse(R"({
@@ -322,6 +324,62 @@ TEST_F(Cli, RunAtAFidelityTakesTheScenesDefaultLadder) {
   EXPECT_NE(output().find("stored as run 2 "), std::string::npos) << output();
 }
 
+// A protected zone the flow never reached (arrival -1 in the store) reads "never" in compare's table, CSV and
+// JSON, with no per cent of it or against it (it read "-1 (-166.7%)" against an arrival at 1.5 s).
+TEST_F(Cli, CompareShowsNeverForAnArrivalThatNeverHappened) {
+  const fs::path db = dir_ / "runs.db";
+  {
+    RunStore store(db);
+    const std::vector<std::pair<std::string, double>> layouts = {{"C0", 1.5}, {"C1", -1}, {"C2", 2.0}};
+    for (const auto& [variant, arrival] : layouts) {
+      RunStore::RunRecord r;
+      r.manifest_hash = "never-" + variant;
+      r.sweep = "never-sweep";
+      r.variant = variant;
+      r.status = "completed";
+      r.metrics_json = json{{"terrain", {{"protected_zones", {{{"name", "Village"}, {"arrival_time_s", arrival}}}}}}}.dump();
+      store.put_run(r);
+    }
+  }
+  const std::string metric = "terrain.protected_zones.Village.arrival_time_s";
+  ASSERT_EQ(run_split("compare --sweep never-sweep --db " + q(db)), 0) << output();
+  const std::string table = standard_output();
+  const size_t at = table.find(metric);
+  ASSERT_NE(at, std::string::npos) << table;
+  const std::string row = table.substr(at, table.find('\n', at) - at);
+  EXPECT_NE(row.find("never"), std::string::npos) << row;
+  EXPECT_NE(row.find("2 (+33.3%)"), std::string::npos) << row;
+  EXPECT_EQ(row.find("-1"), std::string::npos) << row;
+  EXPECT_EQ(row.find("-166"), std::string::npos) << row;
+
+  ASSERT_EQ(run_split("compare --sweep never-sweep --format csv --db " + q(db)), 0) << output();
+  std::istringstream csv(standard_output());
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(csv_fields(line), (std::vector<std::string>{"metric", "decision", "C0 (baseline)", "C1", "C1 %", "C2", "C2 %"}));
+  std::getline(csv, line);
+  EXPECT_EQ(csv_fields(line), (std::vector<std::string>{metric, "1", "1.5", "never", "", "2.0", "33.33333333333333"}));
+
+  ASSERT_EQ(run_split("compare --sweep never-sweep --format json --db " + q(db)), 0) << output();
+  const json j = json::parse(standard_output()).at("rows").at(0);
+  EXPECT_EQ(j.at("metric"), metric);
+  EXPECT_EQ(j.at("values"), json::parse("[null, 2.0]"));
+  EXPECT_EQ(j.at("never"), json::parse("[true, false]"));
+  EXPECT_EQ(j.at("baseline_never"), false);
+  EXPECT_TRUE(j.at("percent")[0].is_null());
+
+  // Against the layout that never arrived: its column says never, and no per cent is taken against it.
+  ASSERT_EQ(run_split("compare --sweep never-sweep --baseline C1 --format json --db " + q(db)), 0) << output();
+  const json b = json::parse(standard_output()).at("rows").at(0);
+  EXPECT_TRUE(b.at("baseline").is_null());
+  EXPECT_EQ(b.at("baseline_never"), true);
+  EXPECT_EQ(b.at("values"), json::parse("[1.5, 2.0]"));
+  EXPECT_EQ(b.at("percent"), json::parse("[null, null]"));
+  ASSERT_EQ(run_split("compare --sweep never-sweep --baseline C1 --db " + q(db)), 0) << output();
+  EXPECT_NE(standard_output().find("never"), std::string::npos) << standard_output();
+  EXPECT_EQ(standard_output().find('%'), std::string::npos) << standard_output();
+}
+
 class CliCompare : public Cli {
  protected:
   // Two stored runs of the dam break with monitors, at dp 0.05 (run 1, the baseline) and 0.04 (run 2).
@@ -404,7 +462,7 @@ TEST_F(CliCompare, CsvHasOneColumnPerValueAndPercent) {
       EXPECT_EQ(f[1], "1");
     }
     for (size_t k = 2; k < f.size(); ++k)
-      if (!f[k].empty()) {
+      if (!f[k].empty() && !(f[k] == "never" && f[0].find("arrival_time_s") != std::string::npos)) {
         size_t used = 0;
         (void)std::stod(f[k], &used);  // a plain number, not "12.3 (+4.0%)"
         EXPECT_EQ(used, f[k].size()) << line;
