@@ -248,6 +248,46 @@ TEST_F(Cli, ReportWritesTheSweepsPageAndRefusesWhatItCannotFind) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+// `runout run SWEEP.json --variant NAME` runs one layout as the sweep resolves it: the same manifest as the
+// sweep's run of it (so the store finds it), stored under the sweep's name and variant, in runs/<sweep>/<variant>
+// by default; without --variant, or with a name that is not a layout, it is refused naming the layouts.
+TEST_F(Cli, RunOneLayoutOfASweepWithVariant) {
+  write("base.json", good_scene().dump());
+  const fs::path sweep = write("sweep.json", R"({"name": "cli-sweep", "base": "base.json",
+                                                 "variants": [{"name": "A"}, {"name": "B", "structures": []}]})");
+  const fs::path db = dir_ / "runs.db";
+  EXPECT_EQ(run("run " + q(sweep) + " --no-db --quiet"), 2);
+  EXPECT_NE(output().find("--variant: " + sweep.string() + " is a sweep: name the layout to run (accepted: A, B)"),
+            std::string::npos) << output();
+  EXPECT_EQ(run("run " + q(sweep) + " --variant C3 --no-db --quiet"), 2);
+  EXPECT_NE(output().find("--variant: 'C3' is not a layout of sweep cli-sweep (accepted: A, B)"), std::string::npos)
+      << output();
+  EXPECT_EQ(run("run " + q(dir_ / "base.json") + " --variant A --no-db --quiet"), 2);
+  EXPECT_NE(output().find("--variant: only for a sweep file"), std::string::npos) << output();
+  // The shipped flume study: its layouts are named.
+  EXPECT_EQ(run("run " + q(fs::path(RUNOUT_SOURCE_DIR) / "scenarios/flume/c0_c7.json") + " --variant C9 --no-db"), 2);
+  EXPECT_NE(output().find("(accepted: C0, C1, C2, C3, C4, C5, C6, C7)"), std::string::npos) << output();
+
+  // Layout B alone, from the test's folder (runs/<sweep>/<variant> is relative to it), then the whole sweep:
+  // the sweep finds B stored and runs only A.
+  const std::string cd = "cd " + q(dir_) + " && ";
+  ASSERT_EQ(run_shell(cd + q(kRunout) + " run sweep.json --variant B --db runs.db --threads 1 --quiet > output.txt 2>&1"), 0)
+      << output();
+  EXPECT_TRUE(fs::is_regular_file(dir_ / "runs" / "cli-sweep" / "B" / "metrics.json"));
+  {
+    const RunStore store(db);
+    const auto runs = store.list_runs("cli-sweep");
+    ASSERT_EQ(runs.size(), 1u);
+    EXPECT_EQ(runs[0].variant, "B");
+    EXPECT_EQ(runs[0].scene, "cli-good/B");
+  }
+  ASSERT_EQ(run_shell(cd + q(kRunout) + " sweep sweep.json --db runs.db --threads 1 --no-compare > output.txt 2>&1"), 0)
+      << output();
+  const RunStore store(db);
+  EXPECT_EQ(store.list_runs("cli-sweep").size(), 2u) << output();
+  EXPECT_NE(output().find("B completed, already stored"), std::string::npos) << output();
+}
+
 // `compare --db` at a mistyped path is refused (exit 2, naming the path) and creates nothing there.
 TEST_F(Cli, CompareRefusesAStoreThatIsNotThere) {
   const fs::path wrong = dir_ / "runuot.db";
