@@ -49,7 +49,9 @@ void write_qml(const std::string& path, const std::vector<StyleStop>& stops, boo
     q << "    <rasterrenderer type=\"singlebandpseudocolor\" band=\"1\" opacity=\"0.8\" alphaBand=\"-1\" "
       << "classificationMin=\"" << number(stops.front().value) << "\" classificationMax=\"" << number(stops.back().value)
       << "\" nodataColor=\"\">\n      <rastershader>\n"
-      << "        <colorrampshader colorRampType=\"INTERPOLATED\" classificationMode=\"1\" clip=\"0\" minimumValue=\""
+      // clip="1": values outside the ramp (a depth under the inundation threshold) are not painted, as on the
+      // web map, rather than in the end colours over the whole window.
+      << "        <colorrampshader colorRampType=\"INTERPOLATED\" classificationMode=\"1\" clip=\"1\" minimumValue=\""
       << number(stops.front().value) << "\" maximumValue=\"" << number(stops.back().value) << "\">\n";
     for (const auto& s : stops)
       q << "          <item value=\"" << number(s.value) << "\" color=\"" << s.colour << "\" alpha=\"255\" label=\""

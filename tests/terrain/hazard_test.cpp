@@ -221,10 +221,11 @@ TEST(HazardGrids, DifferenceGridCoversTheUnionOfTheWindows) {
   EXPECT_EQ(d.ny, 3);
   EXPECT_DOUBLE_EQ(d.x0, 100);
   EXPECT_DOUBLE_EQ(d.y0, 21);
-  // Row 0 (y 20-21) is b only; rows 1-2 overlap where x >= 101.
-  EXPECT_FLOAT_EQ(d.at(0, 0), 0.0f);
+  // Row 0 (y 20-21) is b only; rows 1-2 overlap where x >= 101. A cell with no value in either grid (outside
+  // both, or a's nodata outside b) is nodata, not a difference of 0.
+  EXPECT_TRUE(std::isnan(d.at(0, 0)));
   EXPECT_FLOAT_EQ(d.at(1, 0), -0.25f);
-  EXPECT_FLOAT_EQ(d.at(0, 1), 0.0f);  // a's nodata counts as 0
+  EXPECT_TRUE(std::isnan(d.at(0, 1)));
   EXPECT_FLOAT_EQ(d.at(1, 1), 0.75f);
   EXPECT_FLOAT_EQ(d.at(0, 2), 1.0f);
   Grid shifted(2, 2, 100.5, 20, 1, 1);

@@ -116,7 +116,8 @@ struct ClassLayer {
 void write_class_polygons(const std::string& path, const std::vector<ClassLayer>& layers);
 
 // a - b on the union of their extents (both on the same cell lattice: same cell size, edges a whole number
-// of cells apart, else std::invalid_argument); a cell outside one grid or NaN in it counts as 0 there.
+// of cells apart, else std::invalid_argument); a cell outside one grid or NaN in it counts as 0 there, and is
+// nodata (NaN) where neither grid has a value (dry in both).
 Grid difference_grid(const Grid& a, const Grid& b);
 
 // A QGIS layer style (.qml) for a single-band raster: a colour ramp from the stops' values (continuous), or
