@@ -131,8 +131,13 @@ json write_hazard_outputs(const terrain::InundationGrid& g, const OutputSettings
 
   terrain::Grid inundated = g.max_depth().like(0.0f);
   for (size_t c = 0; c < inundated.values.size(); ++c) inundated.values[c] = g.max_depth().values[c] >= threshold;
+  // Each layer styled in the file (layer_styles): the intensity classes in the colours of intensity.qml and
+  // the web map, the inundated area in the depth ramp's blue.
+  std::vector<std::string> class_colours;
+  for (const auto& st : hazard_colour_scale("intensity", 3, threshold).stops) class_colours.push_back(st.colour);
   terrain::write_class_polygons((dir / "hazard.gpkg").string(),
-                                {{"inundated", &inundated, {"inundated"}}, {"intensity", &classes, terrain::intensity_labels()}});
+                                {{"inundated", &inundated, {"inundated"}, {"#2c7fb8"}},
+                                 {"intensity", &classes, terrain::intensity_labels(), class_colours}});
   w.files.push_back("rasters/hazard.gpkg");
   // The terrain in grey, under the web map's coloured rasters (raster_map.hpp): the depth map's renderer with
   // no depth to draw.

@@ -1,5 +1,7 @@
-// Class grids to polygons (GDALPolygonize) in a GeoPackage: the inundated area and the intensity classes.
+// Class grids to polygons (GDALSieveFilter, then GDALPolygonize) in a GeoPackage: the inundated area and the
+// intensity classes, with the CRS under its EPSG code and each layer's QGIS style in layer_styles.
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <mutex>
@@ -11,6 +13,7 @@
 #include <gdal.h>
 #include <gdal_alg.h>
 #include <gdal_priv.h>
+#include <ogr_spatialref.h>
 #include <ogrsf_frmts.h>
 
 #include "runout/terrain/raster.hpp"
@@ -51,11 +54,34 @@ DatasetPtr class_raster(const Grid& g, const std::string& path) {
   return ds;
 }
 
+// The grid's CRS as the GeoPackage should store it: by its EPSG definition where GDAL identifies the WKT as
+// one (a DEM's .prj is often ESRI WKT without an authority, which the GPKG driver would store as a custom
+// srs_id 100000 that QGIS cannot name), else the WKT as it is.
+OGRSpatialReference layer_crs(const std::string& wkt) {
+  OGRSpatialReference srs;
+  srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  if (wkt.empty() || srs.importFromWkt(wkt.c_str()) != OGRERR_NONE) return srs;
+  int code = 0;
+  if (srs.AutoIdentifyEPSG() == OGRERR_NONE && srs.GetAuthorityCode(nullptr)) code = std::atoi(srs.GetAuthorityCode(nullptr));
+  if (code <= 0) {  // AutoIdentifyEPSG knows UTM and geographic CRSs; PROJ's catalogue the rest (90 %: GDAL's default)
+    if (OGRSpatialReference* best = srs.FindBestMatch(90, "EPSG")) {
+      const char* auth = best->GetAuthorityName(nullptr);
+      if (auth && std::string(auth) == "EPSG" && best->GetAuthorityCode(nullptr)) code = std::atoi(best->GetAuthorityCode(nullptr));
+      best->Release();
+    }
+  }
+  if (code > 0) {
+    OGRSpatialReference epsg;
+    epsg.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    if (epsg.importFromEPSG(code) == OGRERR_NONE) return epsg;
+  }
+  return srs;
+}
+
 void add_layer(GDALDataset& out, const ClassLayer& spec, const std::string& path) {
   if (!spec.classes) throw std::invalid_argument("write_class_polygons: layer '" + spec.name + "' has no grid");
   const Grid& g = *spec.classes;
-  OGRSpatialReference srs;
-  if (!g.crs_wkt.empty()) srs.importFromWkt(g.crs_wkt.c_str());
+  OGRSpatialReference srs = layer_crs(g.crs_wkt);
   OGRLayer* layer = out.CreateLayer(spec.name.c_str(), g.crs_wkt.empty() ? nullptr : &srs, wkbPolygon, nullptr);
   if (!layer) fail(path, "cannot create layer '" + spec.name + "'");
   for (const auto& [name, type] : {std::pair<const char*, OGRFieldType>{"class", OFTInteger}, {"label", OFTString},
@@ -65,6 +91,10 @@ void add_layer(GDALDataset& out, const ClassLayer& spec, const std::string& path
   }
   DatasetPtr raster = class_raster(g, path);
   GDALRasterBandH band = GDALRasterBand::ToHandle(raster->GetRasterBand(1));
+  // No mask: "no class" (0) is a region like the others, so a one-cell speck in the open merges into it (it
+  // goes) and a one-cell hole into its class. 4-connected, as GDALPolygonize traces.
+  if (GDALSieveFilter(band, nullptr, band, kPolygonSieveCells, 4, nullptr, nullptr, nullptr) != CE_None)
+    fail(path, "sieving layer '" + spec.name + "' failed");
   if (GDALPolygonize(band, band, OGRLayer::ToHandle(layer), 0, nullptr, nullptr, nullptr) != CE_None)
     fail(path, "polygonizing layer '" + spec.name + "' failed");
   // Labels and areas, in a transaction (GeoPackage writes are slow one by one).
@@ -79,6 +109,48 @@ void add_layer(GDALDataset& out, const ClassLayer& spec, const std::string& path
     if (layer->SetFeature(f.get()) != OGRERR_NONE) fail(path, "cannot label a polygon");
   }
   out.CommitTransaction();
+}
+
+// The QGIS convention for styles kept in a GeoPackage (what QGIS writes with "Save as Default" into the
+// file): a table layer_styles, one row per layer with its QML and useAsDefault = 1, which QGIS applies when the
+// layer is loaded. Created through OGR so that it is registered in gpkg_contents as an attributes table.
+void add_layer_styles(GDALDataset& out, const std::vector<ClassLayer>& layers, const std::string& path) {
+  std::vector<const ClassLayer*> styled;
+  for (const auto& l : layers)
+    if (!l.colours.empty()) styled.push_back(&l);
+  if (styled.empty()) return;
+  OGRLayer* t = out.CreateLayer("layer_styles", nullptr, wkbNone, nullptr);
+  if (!t) fail(path, "cannot create the layer_styles table");
+  const std::pair<const char*, OGRFieldType> fields[] = {
+      {"f_table_catalog", OFTString}, {"f_table_schema", OFTString}, {"f_table_name", OFTString},
+      {"f_geometry_column", OFTString}, {"styleName", OFTString},     {"styleQML", OFTString},
+      {"styleSLD", OFTString},        {"useAsDefault", OFTInteger},  {"description", OFTString},
+      {"owner", OFTString},           {"ui", OFTString},             {"update_time", OFTDateTime}};
+  for (const auto& [name, type] : fields) {
+    OGRFieldDefn f(name, type);
+    if (std::string(name) == "useAsDefault") f.SetSubType(OFSTBoolean);
+    if (t->CreateField(&f) != OGRERR_NONE) fail(path, std::string("cannot add field layer_styles.") + name);
+  }
+  for (const ClassLayer* l : styled) {
+    if (l->colours.size() != l->labels.size())
+      throw std::invalid_argument("write_class_polygons: layer '" + l->name + "' has " + std::to_string(l->colours.size()) +
+                                  " colours for " + std::to_string(l->labels.size()) + " classes");
+    std::vector<StyleStop> categories;
+    for (size_t k = 0; k < l->labels.size(); ++k) categories.push_back({static_cast<double>(k + 1), l->colours[k], l->labels[k]});
+    OGRFeature f(t->GetLayerDefn());
+    f.SetField("f_table_catalog", "");
+    f.SetField("f_table_schema", "");
+    f.SetField("f_table_name", l->name.c_str());
+    f.SetField("f_geometry_column", out.GetLayerByName(l->name.c_str())->GetGeometryColumn());
+    f.SetField("styleName", l->name.c_str());
+    f.SetField("styleQML", vector_class_qml("class", categories).c_str());
+    f.SetField("styleSLD", "");
+    f.SetField("useAsDefault", 1);
+    f.SetField("description", ("runout: " + l->name + " coloured by class").c_str());
+    f.SetField("owner", "");
+    f.SetField("ui", "");
+    if (t->CreateFeature(&f) != OGRERR_NONE) fail(path, "cannot store the style of layer '" + l->name + "'");
+  }
 }
 
 }  // namespace
@@ -103,6 +175,7 @@ void write_class_polygons(const std::string& path, const std::vector<ClassLayer>
     if (!out) fail(path, "cannot create the GeoPackage");
     try {
       for (const auto& l : layers) add_layer(*out, l, path);
+      add_layer_styles(*out, layers, path);
     } catch (...) {
       out.reset();
       fs::remove(tmp, ec);
