@@ -17,6 +17,7 @@
 #include <ogrsf_frmts.h>
 
 #include "runout/terrain/raster.hpp"
+#include "runout/terrain/terrain.hpp"
 
 namespace runout::terrain {
 namespace {
@@ -31,6 +32,11 @@ using DatasetPtr = std::unique_ptr<GDALDataset, Closer>;
 std::string gdal_message() {
   const char* msg = CPLGetLastErrorMsg();
   return (msg && *msg) ? std::string(msg) : std::string("no details from GDAL");
+}
+
+void register_drivers() {
+  static std::once_flag once;
+  std::call_once(once, [] { GDALAllRegister(); });
 }
 
 [[noreturn]] void fail(const std::string& path, const std::string& what) {
@@ -153,11 +159,81 @@ void add_layer_styles(GDALDataset& out, const std::vector<ClassLayer>& layers, c
   }
 }
 
+// One layer of structures (lines or polygons) with their fields; nothing when none is of this shape.
+void add_structure_layer(GDALDataset& out, const std::string& name, bool areas, const std::vector<StructureInfo>& all,
+                         const std::string& crs_wkt, const std::vector<double>& retained,
+                         const std::vector<double>& upstream, const std::string& path) {
+  std::vector<size_t> which;
+  for (size_t k = 0; k < all.size(); ++k)
+    if ((all[k].kind != StructureKind::check_dam) == areas && all[k].outline.size() >= (areas ? 3u : 2u)) which.push_back(k);
+  if (which.empty()) return;
+  OGRSpatialReference srs = layer_crs(crs_wkt);
+  OGRLayer* layer = out.CreateLayer(name.c_str(), crs_wkt.empty() ? nullptr : &srs, areas ? wkbPolygon : wkbLineString, nullptr);
+  if (!layer) fail(path, "cannot create layer '" + name + "'");
+  std::vector<std::pair<std::string, OGRFieldType>> fields = {
+      {"name", OFTString},           {"type", OFTString},           {"crest_elevation_m", OFTReal},
+      {"wall_height_m", OFTReal},    {"storage_capacity_m3", OFTReal}, {"cut_volume_m3", OFTReal},
+      {"fill_volume_m3", OFTReal},   {"retained_volume_m3", OFTReal}};
+  if (!areas) fields.push_back({"upstream_volume_m3", OFTReal});
+  if (areas) fields.push_back({"area_m2", OFTReal});
+  for (const auto& [field, type] : fields) {
+    OGRFieldDefn f(field.c_str(), type);
+    if (layer->CreateField(&f) != OGRERR_NONE) fail(path, "cannot add field " + name + "." + field);
+  }
+  auto real = [](OGRFeature& f, const char* field, double v) {
+    if (std::isfinite(v)) f.SetField(field, v);  // unknown stays null
+  };
+  out.StartTransaction();
+  for (size_t k : which) {
+    const StructureInfo& st = all[k];
+    OGRFeature f(layer->GetLayerDefn());
+    f.SetField("name", st.name.c_str());
+    f.SetField("type", kind_name(st.kind));
+    real(f, "crest_elevation_m", st.crest_elevation);
+    real(f, "wall_height_m", st.wall_height_built);
+    real(f, "storage_capacity_m3", st.storage_capacity);
+    real(f, "cut_volume_m3", st.cut_volume);
+    real(f, "fill_volume_m3", st.fill_volume);
+    real(f, "retained_volume_m3", k < retained.size() ? retained[k] : NAN);
+    OGRLineString line;
+    for (const auto& p : st.outline) line.addPoint(p[0], p[1]);
+    if (areas) {
+      OGRLinearRing ring;
+      ring.addSubLineString(&line);
+      ring.closeRings();
+      OGRPolygon polygon;
+      polygon.addRing(&ring);
+      real(f, "area_m2", polygon.get_Area());
+      f.SetGeometry(&polygon);
+    } else {
+      real(f, "upstream_volume_m3", k < upstream.size() ? upstream[k] : NAN);
+      f.SetGeometry(&line);
+    }
+    if (layer->CreateFeature(&f) != OGRERR_NONE) fail(path, "cannot write structure '" + st.name + "'");
+  }
+  out.CommitTransaction();
+}
+
 }  // namespace
 
+void write_structure_layers(const std::string& gpkg_path, const std::vector<StructureInfo>& structures,
+                            const std::string& crs_wkt, const std::vector<double>& retained,
+                            const std::vector<double>& upstream) {
+  if (structures.empty()) return;
+  register_drivers();
+  CPLErrorReset();
+  CPLPushErrorHandler(CPLQuietErrorHandler);
+  struct Pop {
+    ~Pop() { CPLPopErrorHandler(); }
+  } pop;
+  DatasetPtr out(GDALDataset::Open(gpkg_path.c_str(), GDAL_OF_VECTOR | GDAL_OF_UPDATE));
+  if (!out) fail(gpkg_path, "cannot open the GeoPackage to add the structures");
+  add_structure_layer(*out, "check_dams", false, structures, crs_wkt, retained, upstream, gpkg_path);
+  add_structure_layer(*out, "structure_areas", true, structures, crs_wkt, retained, upstream, gpkg_path);
+}
+
 void write_class_polygons(const std::string& path, const std::vector<ClassLayer>& layers) {
-  static std::once_flag once;
-  std::call_once(once, [] { GDALAllRegister(); });
+  register_drivers();
   CPLErrorReset();
   CPLPushErrorHandler(CPLQuietErrorHandler);
   struct Pop {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 
 #include <gdal_priv.h>
 #include <nlohmann/json.hpp>
@@ -179,6 +180,50 @@ TEST(HazardOutputs, DryCellsAreNodataAndTheStylesDoNotPaintThem) {
     EXPECT_NE(qml.find("clip=\"1\""), std::string::npos) << name;
     EXPECT_EQ(qml.find("clip=\"0\""), std::string::npos) << name;
   }
+}
+
+// The structures as built are layers of the run's hazard.gpkg: the check dam's axis as a line and the basin as a
+// polygon, each with the numbers metrics.json gives it (crest, capacity, what it held at the end).
+TEST(HazardOutputs, TheBuiltStructuresAreLayersOfTheGeoPackage) {
+  TempDir tmp;
+  json s = short_flume();
+  std::ifstream in(kSource / "scenarios/flume/flume.json");
+  const json flume = json::parse(in);
+  for (const auto& st : flume.at("structures"))
+    if (st.at("name") == "CD_P1" || st.at("name") == "RB1_P2") s["structures"].push_back(st);
+  RunOptions opt;
+  opt.out_dir = tmp.path;
+  opt.threads = 2;
+  const RunSummary sum = run_scene(parse_scene(s.dump()), opt);
+  ASSERT_EQ(sum.status, "completed") << sum.error;
+  std::map<std::string, json> metrics;
+  const json m = json::parse(sum.metrics_json);
+  for (const auto& st : m.at("terrain").at("structures")) metrics[st.at("name")] = st;
+  ASSERT_EQ(metrics.size(), 2u);
+  std::unique_ptr<GDALDataset> gpkg(GDALDataset::Open((tmp.path / "rasters" / "hazard.gpkg").c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY));
+  ASSERT_TRUE(gpkg);
+  OGRLayer* dams = gpkg->GetLayerByName("check_dams");
+  OGRLayer* areas = gpkg->GetLayerByName("structure_areas");
+  ASSERT_TRUE(dams && areas);
+  ASSERT_EQ(dams->GetFeatureCount(), 1);
+  ASSERT_EQ(areas->GetFeatureCount(), 1);
+  std::unique_ptr<OGRFeature> dam(dams->GetNextFeature()), basin(areas->GetNextFeature());
+  EXPECT_STREQ(dam->GetFieldAsString("name"), "CD_P1");
+  EXPECT_STREQ(dam->GetFieldAsString("type"), "check_dam");
+  EXPECT_EQ(wkbFlatten(dam->GetGeometryRef()->getGeometryType()), wkbLineString);
+  EXPECT_NEAR(dam->GetGeometryRef()->toLineString()->get_Length(), 0.44, 1e-9);  // the axis, 5000000.38 to .82
+  for (const char* f : {"crest_elevation_m", "storage_capacity_m3", "retained_volume_m3", "upstream_volume_m3"})
+    EXPECT_DOUBLE_EQ(dam->GetFieldAsDouble(f), metrics["CD_P1"].at(f).get<double>()) << f;
+  EXPECT_GT(dam->GetFieldAsDouble("wall_height_m"), 0.05);  // about the 0.1 m crest height
+  EXPECT_STREQ(basin->GetFieldAsString("name"), "RB1_P2");
+  EXPECT_STREQ(basin->GetFieldAsString("type"), "retention_basin");
+  EXPECT_EQ(wkbFlatten(basin->GetGeometryRef()->getGeometryType()), wkbPolygon);
+  EXPECT_GT(basin->GetFieldAsDouble("area_m2"), 0.0);
+  for (const char* f : {"crest_elevation_m", "storage_capacity_m3", "cut_volume_m3", "retained_volume_m3"})
+    EXPECT_DOUBLE_EQ(basin->GetFieldAsDouble(f), metrics["RB1_P2"].at(f).get<double>()) << f;
+  OGRSpatialReference want;
+  want.importFromEPSG(32632);
+  EXPECT_TRUE(dams->GetSpatialRef() && dams->GetSpatialRef()->IsSame(&want));
 }
 
 TEST(HazardOutputs, IntensityThresholdsAreReadAndRefusedOutOfRange) {
