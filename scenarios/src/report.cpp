@@ -107,10 +107,6 @@ const char* group_name(int group) {
   return group >= 1 && group <= 7 ? names[group] : "";
 }
 
-bool is_arrival(const std::string& name) {
-  return name.size() >= 14 && name.compare(name.size() - 14, 14, "arrival_time_s") == 0;
-}
-
 // ---- charts ----------------------------------------------------------------------------------------------
 
 struct Line {
@@ -309,10 +305,10 @@ std::string cell_value(const Layout& l, const Layout& base, const std::string& n
   const double v = *metric(l, name);
   std::ostringstream s;
   s << "<span data-metric=\"" << html_escape(name) << "\" data-value=\"" << exact(v) << "\">"
-    << (subject.empty() ? "" : "<b>" + html_escape(subject) + "</b> ") << (is_arrival(name) && v < 0 ? "never" : fmt(v))
+    << (subject.empty() ? "" : "<b>" + html_escape(subject) + "</b> ") << (means_never(name, v) ? "never" : fmt(v))
     << "</span>";
   const auto b = metric(base, name);
-  if (!l.baseline && b && *b != 0 && !(is_arrival(name) && (v < 0 || *b < 0))) {  // a per cent of "never" means nothing
+  if (!l.baseline && b && *b != 0 && !means_never(name, v) && !means_never(name, *b)) {  // a per cent of "never" means nothing
     const double pct = (v - *b) / std::abs(*b) * 100;
     const bool better = higher_is_better(name) ? pct > 0 : pct < 0;
     s << " <small class=\"" << (pct == 0 ? "same" : better ? "better" : "worse") << "\">" << fmt(pct, "%+.1f %%")
