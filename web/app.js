@@ -577,14 +577,16 @@ function renderMetrics(c) {
     r2.append(th('value'), th('Δ'), th('Δ %'));
   }
   head.append(r1, r2);
-  const td = (v, metric, job, kind, digits) => {
+  // never: an arrival time that never happened (GET /compare's never / baseline_never), shown as the word.
+  const td = (v, metric, job, kind, digits, never = false) => {
     const d = document.createElement('td');
     d.className = 'num';
-    d.textContent = tableNumber(v, digits);
+    d.textContent = never ? 'never' : tableNumber(v, digits);
     d.dataset.metric = metric;
     d.dataset.job = job;
     d.dataset.kind = kind;
     d.dataset.value = v == null ? '' : String(v);
+    if (never) d.dataset.never = 'true';
     if ((kind === 'difference' || kind === 'percent') && v != null && v !== 0) d.classList.add(v > 0 ? 'up' : 'down');
     return d;
   };
@@ -596,12 +598,12 @@ function renderMetrics(c) {
     if (m.decision) tr.classList.add('decision');
     else if (previous?.decision) tr.classList.add('first-other');
     previous = m;
-    const differs = m.difference.some((d) => d != null && d !== 0);
+    const differs = m.difference.some((d) => d != null && d !== 0) || (m.never ?? []).some((n) => n !== Boolean(m.baseline_never));
     tr.dataset.differs = differs;
     tr.append(Object.assign(document.createElement('th'), { scope: 'row', textContent: m.metric }));
-    tr.append(td(m.baseline, m.metric, c.baseline.job, 'baseline', 6));
+    tr.append(td(m.baseline, m.metric, c.baseline.job, 'baseline', 6, m.baseline_never));
     c.jobs.forEach((j, k) => {
-      tr.append(td(m.values[k], m.metric, j.job, 'value', 6), td(m.difference[k], m.metric, j.job, 'difference', 6), td(m.percent[k], m.metric, j.job, 'percent', 4));
+      tr.append(td(m.values[k], m.metric, j.job, 'value', 6, m.never?.[k]), td(m.difference[k], m.metric, j.job, 'difference', 6), td(m.percent[k], m.metric, j.job, 'percent', 4));
     });
     body.append(tr);
   }

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
+#include <limits>
 #include <sstream>
 
 #include "runout/scenarios/raster_map.hpp"
@@ -42,6 +43,15 @@ float grid_max(const terrain::Grid& g) {
   for (float v : g.values)
     if (!std::isnan(v)) m = std::max(m, v);
   return m;
+}
+
+// `g` with nodata where the flow never wet the cell (`wet` under `least`): QGIS and GDAL then leave those
+// cells out (no paint over the basemap, no statistics of zeros), and 0 keeps meaning "wet, nothing recorded".
+terrain::Grid wet_only(const terrain::Grid& g, const terrain::Grid& wet, float least) {
+  terrain::Grid out = g;
+  for (size_t c = 0; c < out.values.size(); ++c)
+    if (!(wet.values[c] >= least)) out.values[c] = terrain::Grid::nodata;
+  return out;
 }
 
 // The colour scale of a raster (raster_map.hpp: the web map colours it the same way) as QGIS style stops.
@@ -89,15 +99,23 @@ json write_hazard_outputs(const terrain::InundationGrid& g, const OutputSettings
             {"RUNOUT_VERSION", RUNOUT_VERSION}}};
   const float hmax = grid_max(g.max_depth()), vmax = grid_max(g.max_speed()), qmax = grid_max(g.max_hv()),
               pmax = grid_max(g.max_pressure());
-  w.raster("max_depth", g.max_depth(), "maximum flow depth over the run", "m", style("max_depth", hmax, threshold));
-  w.raster("max_speed", g.max_speed(), "maximum particle speed over the run", "m/s", style("max_speed", vmax, threshold));
-  w.raster("deposit_depth", g.depth(), "flow depth at the end of the run", "m",
-           style("deposit_depth", grid_max(g.depth()), threshold));
-  w.raster("max_hv", g.max_hv(), "maximum over time of depth x depth-averaged speed", "m2/s",
-           style("max_hv", qmax, threshold));
+  // Dry cells are nodata (docs/terrain.md, "Hazard outputs"): never touched by the flow for the maxima, no
+  // deposit at the end for the deposit, never at the inundation threshold for the pressure (recorded only there)
+  // and the arrival. The least positive float: any depth the flow left counts as wet.
+  const terrain::Grid& depth = g.max_depth();
+  const float touched = std::numeric_limits<float>::denorm_min();
+  w.raster("max_depth", wet_only(depth, depth, touched), "maximum flow depth over the run (nodata: never reached)", "m",
+           style("max_depth", hmax, threshold));
+  w.raster("max_speed", wet_only(g.max_speed(), depth, touched), "maximum particle speed over the run (nodata: never reached)",
+           "m/s", style("max_speed", vmax, threshold));
+  w.raster("deposit_depth", wet_only(g.depth(), g.depth(), touched), "flow depth at the end of the run (nodata: none)",
+           "m", style("deposit_depth", grid_max(g.depth()), threshold));
+  w.raster("max_hv", wet_only(g.max_hv(), depth, touched),
+           "maximum over time of depth x depth-averaged speed (nodata: never reached)", "m2/s", style("max_hv", qmax, threshold));
   w.raster("arrival_time", g.arrival_time(), "first time the depth reached the inundation threshold (nodata: never)",
            "s", style("arrival_time", grid_max(g.arrival_time()), threshold));
-  w.raster("max_pressure", g.max_pressure(), "maximum hydrodynamic impact pressure rho v^2", "Pa",
+  w.raster("max_pressure", wet_only(g.max_pressure(), depth, std::max(static_cast<float>(threshold), touched)),
+           "maximum hydrodynamic impact pressure rho v^2 (nodata: never at the inundation threshold)", "Pa",
            style("max_pressure", pmax, threshold));
 
   const terrain::Grid classes = terrain::intensity_classes(g.max_depth(), g.max_hv(), it, threshold);
@@ -113,8 +131,13 @@ json write_hazard_outputs(const terrain::InundationGrid& g, const OutputSettings
 
   terrain::Grid inundated = g.max_depth().like(0.0f);
   for (size_t c = 0; c < inundated.values.size(); ++c) inundated.values[c] = g.max_depth().values[c] >= threshold;
+  // Each layer styled in the file (layer_styles): the intensity classes in the colours of intensity.qml and
+  // the web map, the inundated area in the depth ramp's blue.
+  std::vector<std::string> class_colours;
+  for (const auto& st : hazard_colour_scale("intensity", 3, threshold).stops) class_colours.push_back(st.colour);
   terrain::write_class_polygons((dir / "hazard.gpkg").string(),
-                                {{"inundated", &inundated, {"inundated"}}, {"intensity", &classes, terrain::intensity_labels()}});
+                                {{"inundated", &inundated, {"inundated"}, {"#2c7fb8"}},
+                                 {"intensity", &classes, terrain::intensity_labels(), class_colours}});
   w.files.push_back("rasters/hazard.gpkg");
   // The terrain in grey, under the web map's coloured rasters (raster_map.hpp): the depth map's renderer with
   // no depth to draw.

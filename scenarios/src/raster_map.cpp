@@ -203,6 +203,47 @@ std::vector<ColourScale> run_raster_scales(const fs::path& out_dir) {
   return out;
 }
 
+ColourScale difference_colour_scale(const std::string& name, const std::string& unit, double max_abs) {
+  const double m = max_abs > 0 ? max_abs : 1.0;
+  auto label = [&](double v) {
+    std::ostringstream s;
+    s.precision(3);
+    s << (v > 0 ? "+" : "") << v << ' ' << unit;
+    return s.str();
+  };
+  ColourScale s;
+  s.layer = "diff_" + name;
+  s.title = name == "max_depth" ? "maximum flow depth, this layout minus the baseline"
+                                : "maximum depth x speed, this layout minus the baseline";
+  s.unit = unit;
+  s.stops = {{-m, "#2166ac", label(-m)}, {-m / 2, "#92c5de", label(-m / 2)}, {0, "#f7f7f7", label(0)},
+             {m / 2, "#f4a582", label(m / 2)}, {m, "#b2182b", label(m)}};
+  s.zero_transparent = false;  // 0 is "unchanged" (white); a cell dry in both layouts is nodata
+  s.min = -m;
+  s.max = m;
+  return s;
+}
+
+std::optional<RasterPicture> render_difference_raster(const fs::path& out_dir, const std::string& name) {
+  const fs::path tif = out_dir / "rasters" / ("diff_" + name + ".tif");
+  if (!fs::is_regular_file(tif)) return std::nullopt;
+  terrain::Grid g;
+  try {
+    g = terrain::load_dem(tif.string());
+  } catch (const terrain::TerrainError& e) {
+    throw std::runtime_error(e.what());
+  }
+  double m = 0;
+  for (float v : g.values)
+    if (!std::isnan(v)) m = std::max(m, std::abs(static_cast<double>(v)));
+  RasterPicture p;
+  p.scale = difference_colour_scale(name, name == "max_depth" ? "m" : "m2/s", m);
+  p.width = g.nx;
+  p.height = g.ny;
+  p.png = png_rgba(g.nx, g.ny, colour_cells(g, p.scale));
+  return p;
+}
+
 fs::path run_hillshade(const fs::path& out_dir) { return out_dir / "rasters" / "hillshade.png"; }
 
 }  // namespace runout

@@ -16,7 +16,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "runout/common/base64.hpp"
 #include "runout/scenarios/decision_metrics.hpp"
+#include "runout/scenarios/raster_map.hpp"
 #include "runout/scenarios/scene_map.hpp"
 #include "runout/scenarios/tradeoff.hpp"
 #include "runout/terrain/raster.hpp"
@@ -52,22 +54,6 @@ std::string fmt(double v, const char* f = "%.4g") {
 
 // A value as JSON writes it: the shortest text that reads back as the same double (data-value attributes).
 std::string exact(double v) { return json(v).dump(); }
-
-std::string base64(const std::string& bytes) {
-  static const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((bytes.size() + 2) / 3 * 4);
-  for (size_t i = 0; i < bytes.size(); i += 3) {
-    uint32_t n = static_cast<uint32_t>(static_cast<unsigned char>(bytes[i])) << 16;
-    if (i + 1 < bytes.size()) n |= static_cast<uint32_t>(static_cast<unsigned char>(bytes[i + 1])) << 8;
-    if (i + 2 < bytes.size()) n |= static_cast<unsigned char>(bytes[i + 2]);
-    out += abc[(n >> 18) & 63];
-    out += abc[(n >> 12) & 63];
-    out += i + 1 < bytes.size() ? abc[(n >> 6) & 63] : '=';
-    out += i + 2 < bytes.size() ? abc[n & 63] : '=';
-  }
-  return out;
-}
 
 std::string read_bytes(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -119,10 +105,6 @@ const char* group_name(int group) {
   static const char* names[] = {"", "outlet", "outlet", "peak loads", "retained volumes", "inundation",
                                 "protected zones", "runout"};
   return group >= 1 && group <= 7 ? names[group] : "";
-}
-
-bool is_arrival(const std::string& name) {
-  return name.size() >= 14 && name.compare(name.size() - 14, 14, "arrival_time_s") == 0;
 }
 
 // ---- charts ----------------------------------------------------------------------------------------------
@@ -180,6 +162,8 @@ std::string line_chart(const std::string& title, const std::string& x_label, con
   for (double v : ticks(y0, y1))
     s << "<line x1=\"" << L << "\" x2=\"" << L + pw << "\" y1=\"" << Y(v) << "\" y2=\"" << Y(v) << "\" class=\"grid\"/>"
       << "<text x=\"" << L - 6 << "\" y=\"" << Y(v) + 4 << "\" text-anchor=\"end\">" << fmt(v, "%g") << "</text>";
+  if (y0 < 0)  // a sign to read (a load that turns negative): the zero line drawn, not only a grid line
+    s << "<line x1=\"" << L << "\" x2=\"" << L + pw << "\" y1=\"" << Y(0) << "\" y2=\"" << Y(0) << "\" class=\"zero\"/>";
   s << "<text x=\"" << L + pw / 2 << "\" y=\"" << H - 8 << "\" text-anchor=\"middle\">" << html_escape(x_label) << "</text>"
     << "<text transform=\"translate(16 " << T + ph / 2 << ") rotate(-90)\" text-anchor=\"middle\">"
     << html_escape(y_label) << "</text>";
@@ -262,13 +246,20 @@ std::vector<std::string> decision_columns(const std::vector<Layout>& layouts, co
   return d.order(std::vector<std::string>(all.begin(), all.end()), false);
 }
 
-// Layouts ranked by the outlet's Q_m, lowest (the most protective) first; layouts without it last, by name.
+// Whether two values of the ranking key tie: they print the same in the table (fmt's 4 significant digits).
+// The table is what the reader ranks by; an order decided by digits it does not show (C2 and C3 both 0.02215,
+// apart in the last bits of their sums) would look arbitrary, and the outlet's Q_m is not resolved that finely
+// anyway (a particle crossing the section is a step of dp^3 / window: 0.0125 m³/s on the flume at draft).
+bool ties(double a, double b) { return fmt(a) == fmt(b); }
+
+// Layouts ranked by the outlet's Q_m, lowest (the most protective) first, ties (above) by name; layouts
+// without it last, by name.
 std::vector<const Layout*> ranked(const std::vector<Layout>& layouts, const std::string& key) {
   std::vector<const Layout*> out;
   for (const auto& l : layouts) out.push_back(&l);
   std::stable_sort(out.begin(), out.end(), [&](const Layout* a, const Layout* b) {
     const auto qa = metric(*a, key), qb = metric(*b, key);
-    if (qa && qb && *qa != *qb) return *qa < *qb;
+    if (qa && qb && !ties(*qa, *qb)) return *qa < *qb;
     if (qa.has_value() != qb.has_value()) return qa.has_value();
     return natural_less(a->run.label, b->run.label);
   });
@@ -314,10 +305,10 @@ std::string cell_value(const Layout& l, const Layout& base, const std::string& n
   const double v = *metric(l, name);
   std::ostringstream s;
   s << "<span data-metric=\"" << html_escape(name) << "\" data-value=\"" << exact(v) << "\">"
-    << (subject.empty() ? "" : "<b>" + html_escape(subject) + "</b> ") << (is_arrival(name) && v < 0 ? "never" : fmt(v))
+    << (subject.empty() ? "" : "<b>" + html_escape(subject) + "</b> ") << (means_never(name, v) ? "never" : fmt(v))
     << "</span>";
   const auto b = metric(base, name);
-  if (!l.baseline && b && *b != 0 && !(is_arrival(name) && (v < 0 || *b < 0))) {  // a per cent of "never" means nothing
+  if (!l.baseline && b && *b != 0 && !means_never(name, v) && !means_never(name, *b)) {  // a per cent of "never" means nothing
     const double pct = (v - *b) / std::abs(*b) * 100;
     const bool better = higher_is_better(name) ? pct > 0 : pct < 0;
     s << " <small class=\"" << (pct == 0 ? "same" : better ? "better" : "worse") << "\">" << fmt(pct, "%+.1f %%")
@@ -338,8 +329,13 @@ std::string ranking_table(const std::vector<Layout>& layouts, const DecisionMetr
                                                             "</code>), lowest first: the most protective layout first")
     << ". Each cell: the layout's value and its difference from the baseline " << html_escape(base->run.label)
     << " in per cent (green where it improves on the baseline, red where it is worse); – where the layout has no "
-       "such metric. Peak loads and retained volumes list the structures the layout builds. \"never\": the flow "
-       "did not reach the zone. Hover a heading for the stored metric's name.</p>";
+       "such metric. Layouts whose Q_m reads the same here tie: they share a rank and go by name. Peak loads and "
+       "retained volumes list the structures the layout builds. <b>retained</b>: the flow volume the structure "
+       "holds at the end (inside a deposition area; inside a basin below its rim; upstream of a check dam's axis "
+       "below its crest); <b>upstream</b> (check dams): everything upstream of the dam's axis within its span at "
+       "any height, the deposit it holds back, which on a steep bed stands mostly above the crest (so a dam can "
+       "retain 0 with a volume upstream). \"never\": the flow did not reach the zone. Hover a heading for the "
+       "stored metric's name.</p>";
   if (columns.empty())  // still the layouts, by name: the page says what was compared
     s << "<p class=\"note\">No decision metric is stored for these runs (no section, structure or terrain).</p>";
   s << "<div class=\"scroll\"><table id=\"ranking\" class=\"ranking\"><thead><tr><th rowspan=\"2\">#</th>"
@@ -357,9 +353,14 @@ std::string ranking_table(const std::vector<Layout>& layouts, const DecisionMetr
     s << "<th title=\"" << html_escape(names) << "\">" << html_escape(c.heading) << "</th>";
   }
   s << "</tr></thead><tbody>";
-  int rank = 0;
+  int rank = 0, position = 0;
+  const Layout* previous = nullptr;
   for (const Layout* l : ranked(layouts, key)) {
-    s << "<tr" << (l->baseline ? " class=\"baseline\"" : "") << "><td>" << ++rank << "</td><th scope=\"row\">"
+    ++position;  // a tie shares the rank of the first of its group (1, 1, 3)
+    const auto q = metric(*l, key), pq = previous ? metric(*previous, key) : std::nullopt;
+    if (!(q && pq && ties(*q, *pq))) rank = position;
+    previous = l;
+    s << "<tr" << (l->baseline ? " class=\"baseline\"" : "") << "><td>" << rank << "</td><th scope=\"row\">"
       << "<a href=\"#layout-" << html_escape(l->run.label) << "\">" << html_escape(l->run.label) << "</a>"
       << (l->baseline ? " <small>baseline</small>" : "") << "</th>";
     for (const auto& c : columns) {
@@ -435,7 +436,7 @@ std::string map_figure(const Layout& l) {
   auto py = [&](double y) { return (ext->north - y) / ext->dy * f; };
   std::ostringstream s;
   s << "<figure class=\"map\"><div class=\"mapbox\"><img alt=\"maximum flow depth of " << html_escape(l.run.label)
-    << "\" src=\"data:image/png;base64," << base64(read_bytes(png)) << "\"><svg viewBox=\"0 0 " << W << ' ' << H
+    << "\" src=\"data:image/png;base64," << base64_encode(read_bytes(png)) << "\"><svg viewBox=\"0 0 " << W << ' ' << H
     << "\" preserveAspectRatio=\"none\" style=\"font-size:" << fs_px << "px\">";
   try {  // names over the outlines the PNG draws; a scene whose geometry cannot be read again shows none
     const SceneMap m = scene_map(l.manifest.at("scene").dump());
@@ -466,6 +467,61 @@ std::string map_figure(const Layout& l) {
     << "<br>" << fmt(ext->east - ext->west, "%.4g") << " m × " << fmt(ext->north - ext->south, "%.4g") << " m, cells of "
     << fmt(ext->dx, "%g") << " m, " << html_escape(ext->crs.empty() ? std::string("local coordinates") : ext->crs)
     << "</figcaption></figure>";
+  return s.str();
+}
+
+// A legend of a colour scale: a swatch per class, or the ramp as a gradient with its end and middle labels.
+std::string scale_legend(const ColourScale& sc, const std::string& id) {
+  std::ostringstream s;
+  s << "<svg class=\"legend\" viewBox=\"0 0 560 40\" role=\"img\" aria-label=\"legend\"><text x=\"0\" y=\"12\">"
+    << html_escape(sc.title) << (sc.classes ? "" : " [" + html_escape(sc.unit) + "]") << "</text>";
+  if (sc.classes) {
+    for (size_t k = 0; k < sc.stops.size(); ++k)
+      s << "<rect x=\"" << 90 * k << "\" y=\"18\" width=\"14\" height=\"14\" fill=\"" << sc.stops[k].colour
+        << "\" stroke=\"#555\"/><text x=\"" << 90 * k + 20 << "\" y=\"30\">" << html_escape(sc.stops[k].label) << "</text>";
+  } else {
+    s << "<defs><linearGradient id=\"g-" << id << "\">";
+    for (const auto& st : sc.stops)
+      s << "<stop offset=\"" << fmt(100 * (st.value - sc.min) / (sc.max > sc.min ? sc.max - sc.min : 1), "%.1f")
+        << "%\" stop-color=\"" << st.colour << "\"/>";
+    s << "</linearGradient></defs><rect x=\"0\" y=\"18\" width=\"240\" height=\"10\" fill=\"url(#g-" << id
+      << ")\" stroke=\"#555\"/>";
+    const size_t mid = sc.stops.size() / 2;
+    s << "<text x=\"0\" y=\"40\">" << html_escape(sc.stops.front().label) << "</text><text x=\"120\" y=\"40\" "
+      << "text-anchor=\"middle\">" << html_escape(sc.stops[mid].label) << "</text><text x=\"240\" y=\"40\" "
+      << "text-anchor=\"end\">" << html_escape(sc.stops.back().label) << "</text>";
+  }
+  s << "</svg>";
+  return s.str();
+}
+
+// The run's intensity classes over its hillshade (the same window) and the sweep's difference rasters of this
+// layout (their window is the union with the baseline's, so on their own, grey where dry in both), each with
+// its legend; nothing for a run without them.
+std::string hazard_maps(const Layout& l) {
+  if (l.run.out_dir.empty()) return "";
+  std::ostringstream s;
+  const std::string id = html_escape(l.run.label);
+  try {
+    if (const auto p = render_run_raster(l.run.out_dir, "intensity")) {
+      const fs::path hill = run_hillshade(l.run.out_dir);
+      s << "<figure class=\"map hazard\" data-raster=\"intensity\"><div class=\"mapbox\">";
+      if (fs::is_regular_file(hill))
+        s << "<img alt=\"terrain of " << id << "\" src=\"data:image/png;base64," << base64_encode(read_bytes(hill)) << "\">";
+      s << "<img class=\"over\" alt=\"intensity classes of " << id << "\" src=\"data:image/png;base64,"
+        << base64_encode(p->png) << "\"></div><figcaption>" << scale_legend(p->scale, "int-" + id)
+        << "<br>debris-flow intensity from the maximum depth and h·v (rasters/intensity.tif)</figcaption></figure>";
+    }
+    for (const char* name : {"max_depth", "max_hv"})
+      if (const auto p = render_difference_raster(l.run.out_dir, name))
+        s << "<figure class=\"map hazard\" data-raster=\"diff_" << name << "\"><div class=\"mapbox diff\"><img alt=\""
+          << html_escape(p->scale.title) << " (" << id << ")\" src=\"data:image/png;base64," << base64_encode(p->png)
+          << "\"></div><figcaption>" << scale_legend(p->scale, std::string("diff-") + name + "-" + id)
+          << "<br>this layout minus the sweep's baseline (its first layout), rasters/diff_" << name
+          << ".tif; grey: dry in both</figcaption></figure>";
+  } catch (const std::exception& e) {  // an unreadable raster: said, the rest of the report still written
+    s << "<p class=\"note\">A hazard raster of this run could not be read: " << html_escape(e.what()) << "</p>";
+  }
   return s.str();
 }
 
@@ -607,7 +663,7 @@ std::string layout_section(const Layout& l, const DecisionMetrics& d) {
   const std::string key = "monitors.section." + d.outlet() + ".peak_discharge_m3_s";
   if (const auto q = metric(l, key)) s << " Outlet Q_m " << fmt(*q) << " m³/s.";
   if (const auto a = metric(l, "terrain.inundation.inundated_area_m2")) s << " Inundated " << fmt(*a) << " m².";
-  s << "</p>" << map_figure(l) << "</section>";
+  s << "</p>" << map_figure(l) << hazard_maps(l) << "</section>";
   return s.str();
 }
 
@@ -643,10 +699,15 @@ figure{margin:8px 0}svg.chart{width:100%;height:auto;font-size:11px;fill:#333}sv
 svg.chart .plot{fill:#fff;stroke:#888}svg.chart .grid{stroke:#e6e6e6}svg.chart polyline{fill:none;stroke-width:1.6}
 .layouts{display:grid;grid-template-columns:repeat(auto-fill,minmax(560px,1fr));gap:8px 24px}
 .mapbox{position:relative;line-height:0;border:1px solid #bbb}.mapbox img{width:100%;height:auto;image-rendering:pixelated}
-.mapbox svg{position:absolute;inset:0;width:100%;height:100%}.mapbox text{paint-order:stroke;stroke:#fff;stroke-width:.25em;fill:#111;font-family:sans-serif}
+.mapbox svg{position:absolute;inset:0;width:100%;height:100%}.mapbox img.over{position:absolute;inset:0;height:100%}
+.mapbox.diff{background:#d9d9d9}.mapbox text{paint-order:stroke;stroke:#fff;stroke-width:.25em;fill:#111;font-family:sans-serif}
 .mapbox text.zone{fill:#b01818}svg.legend{width:100%;max-width:560px;font-size:12px;fill:#333}figcaption{font-size:12px;color:#555}
 .swatch{display:inline-block;width:12px;height:12px;margin-right:6px;border-radius:2px}details.manifest{margin:4px 0}
-pre{font-size:11px;background:#f7f7f9;padding:8px;overflow:auto;max-height:360px}
+pre{font-size:11px;background:#f7f7f9;padding:8px;overflow:auto;max-height:360px}svg.chart .zero{stroke:#555;stroke-width:1}
+@media print{body{max-width:none;padding:0;font-size:10pt}nav{display:none}h2{break-after:avoid}
+.scroll{overflow:visible}.ranking{font-size:8pt}.charts,.layouts{display:block}figure,tr,.layout{break-inside:avoid}
+.mapbox img{image-rendering:auto}pre{max-height:none;overflow:visible;white-space:pre-wrap}
+a{color:inherit;text-decoration:none}*{-webkit-print-color-adjust:exact;print-color-adjust:exact}}
 )";
 
 std::string utc_now() {
@@ -694,12 +755,18 @@ std::string study_report_html(const RunStore& store, const StudyReportInput& inp
   s << "<section id=\"ranking-section\"><h2>Ranking of the layouts by the decision metrics</h2>" << ranking_table(layouts, d)
     << "</section>";
   const std::string hydro = monitor_charts(store, layouts, "section_", "discharge_m3_s", "discharge", "m³/s");
-  const std::string loads = monitor_charts(store, layouts, "structure_load_", "force_n", "force", "N");
+  const std::string loads =
+      monitor_charts(store, layouts, "structure_load_", "force_n", "force along the downstream normal", "N");
   s << "<section id=\"hydrographs\"><h2>Hydrographs</h2><p class=\"key\">Discharge through each cross-section (the "
        "filtered series the peaks are taken from), one line per layout; the baseline dashed.</p><div class=\"charts\">"
     << (hydro.empty() ? "<p class=\"note\">No section monitors in these runs.</p>" : hydro) << "</div></section>";
   s << "<section id=\"loads\"><h2>Loads on the structures</h2><p class=\"key\">Force on each structure's load cell "
-       "(window means), one line per layout that builds it.</p><div class=\"charts\">"
+       "(window means), one line per layout that builds it. Sign: the force's component along the structure's "
+       "downstream normal (the direction the flow runs through it); <b>positive</b>, the flow pushes the structure "
+       "downstream, as an impact does; <b>negative</b>, the net push points upstream, from material resting "
+       "against the structure's downstream face or piled on its lee after overtopping (the zero line is drawn "
+       "where a load turns negative). The peak loads in the ranking are the largest positive values.</p>"
+       "<div class=\"charts\">"
     << (loads.empty() ? "<p class=\"note\">No structure load monitors in these runs.</p>" : loads) << "</div></section>";
   s << "<section id=\"layouts\"><h2>Layouts and maps</h2><div class=\"layouts\">";
   for (const auto& l : layouts) s << layout_section(l, d);
@@ -733,7 +800,12 @@ StudyReportInput sweep_report_input(const RunStore& store, const std::string& sw
 
 void write_study_report(const RunStore& store, const std::string& sweep, const std::string& baseline,
                         const fs::path& runs_root, const fs::path& out_path) {
-  const std::string html = study_report_html(store, sweep_report_input(store, sweep, baseline, runs_root));
+  const StudyReportInput input = sweep_report_input(store, sweep, baseline, runs_root);
+  // A mistyped --runs would otherwise give a page of "No map" and exit 0.
+  if (!fs::is_directory(runs_root / sweep))
+    throw std::invalid_argument("--runs: no folder " + (runs_root / sweep).string() + " (runout sweep --out RUNS writes "
+                                "each layout of sweep '" + sweep + "' to RUNS/" + sweep + "/<variant>)");
+  const std::string html = study_report_html(store, input);
   if (out_path.has_parent_path()) fs::create_directories(out_path.parent_path());
   const fs::path tmp = out_path.string() + ".tmp";
   {

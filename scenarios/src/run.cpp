@@ -352,6 +352,15 @@ json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::Inund
   t["release_volume_m3"] = tm.release_volume;
   t["release_depth_m"] = tm.release_depth;
   t["structures"] = structure_metrics(tm, final_pos, final_vol);
+  {  // the structures as built, beside the hazard polygons: a map of the run shows what was simulated
+    std::vector<double> retained, upstream;
+    for (const auto& st : t["structures"]) {
+      retained.push_back(st.value("retained_volume_m3", std::nan("")));
+      upstream.push_back(st.value("upstream_volume_m3", std::nan("")));
+    }
+    terrain::write_structure_layers((dir / "rasters" / "hazard.gpkg").string(), tm.structures, tm.dem.crs_wkt, retained,
+                                    upstream);
+  }
   t["inundation"] = inundation_metrics(tm, g, out);
   for (auto it = hazard.begin(); it != hazard.end(); ++it) t["inundation"][it.key()] = it.value();
   t["inundation"]["rasters"].push_back("rasters/max_depth.png");

@@ -386,18 +386,32 @@ Comparison compare_runs(const RunStore& store, const std::vector<int64_t>& run_i
   for (const auto& name : names) {
     Comparison::Row row;
     row.metric = name;
-    if (auto it = base.find(name); it != base.end()) row.baseline = it->second;
+    if (auto it = base.find(name); it != base.end()) {
+      row.baseline_never = means_never(name, it->second);
+      if (!row.baseline_never) row.baseline = it->second;
+    }
     for (const auto& vals : values) {
       std::optional<double> v;
-      if (auto it = vals.find(name); it != vals.end()) v = it->second;
+      bool never = false;
+      if (auto it = vals.find(name); it != vals.end()) {
+        never = means_never(name, it->second);
+        if (!never) v = it->second;
+      }
       std::optional<double> pct;
       if (v && row.baseline && *row.baseline != 0.0) pct = (*v - *row.baseline) / std::abs(*row.baseline) * 100.0;
       row.values.push_back(v);
+      row.never.push_back(never);
       row.percent.push_back(pct);
     }
     c.rows.push_back(std::move(row));
   }
   return c;
+}
+
+bool means_never(const std::string& metric, double value) {
+  static constexpr std::string_view suffix = "arrival_time_s";
+  return value < 0 && metric.size() >= suffix.size() &&
+         metric.compare(metric.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 }  // namespace runout

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "hazard_outputs.hpp"
+#include "runout/scenarios/raster_map.hpp"
 #include "runout/scenarios/study.hpp"
 #include "runout/terrain/raster.hpp"
 
@@ -13,20 +14,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Blue where the layout lowers the value, white unchanged, red where it raises it; symmetric about 0.
-std::vector<terrain::StyleStop> diverging(const terrain::Grid& d, const std::string& unit) {
+// The diverging scale the report's maps use too (raster_map.hpp), as QGIS style stops.
+std::vector<terrain::StyleStop> diverging(const terrain::Grid& d, const std::string& name, const std::string& unit) {
   float m = 0.0f;
   for (float v : d.values)
     if (!std::isnan(v)) m = std::max(m, std::abs(v));
-  if (!(m > 0)) m = 1.0f;
-  auto label = [&](double v) {
-    std::ostringstream s;
-    s.precision(3);
-    s << (v > 0 ? "+" : "") << v << ' ' << unit;
-    return s.str();
-  };
-  return {{-m, "#2166ac", label(-m)}, {-m / 2, "#92c5de", label(-m / 2)}, {0, "#f7f7f7", label(0)},
-          {m / 2, "#f4a582", label(m / 2)}, {m, "#b2182b", label(m)}};
+  std::vector<terrain::StyleStop> stops;
+  for (const auto& st : difference_colour_scale(name, unit, m).stops) stops.push_back({st.value, st.colour, st.label});
+  return stops;
 }
 
 }  // namespace
@@ -50,7 +45,7 @@ std::vector<std::string> write_difference_rasters(const fs::path& sweep_dir, con
                              {r.description, r.unit,
                               {{"RUNOUT_LAYOUT", variants[k]}, {"RUNOUT_BASELINE", variants.front()},
                                {"RUNOUT_DIFFERENCE", variants[k] + " - " + variants.front()}}});
-      terrain::write_qml((dir / (name + ".qml")).string(), diverging(d, r.unit), false);
+      terrain::write_qml((dir / (name + ".qml")).string(), diverging(d, r.name, r.unit), false);
     }
     if (all) written.push_back(variants[k]);
   }

@@ -126,8 +126,7 @@ namespace {
 std::optional<double> metric_value(const TradeoffLevel& l, const std::string& name) {
   const auto it = l.metrics.find(name);
   if (it == l.metrics.end()) return std::nullopt;
-  const bool arrival = name.size() >= 14 && name.compare(name.size() - 14, 14, "arrival_time_s") == 0;
-  if (arrival && it->second < 0) return std::nullopt;
+  if (means_never(name, it->second)) return std::nullopt;
   return it->second;
 }
 

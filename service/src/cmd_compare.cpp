@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 
 #include <nlohmann/json.hpp>
@@ -43,7 +44,8 @@ std::vector<ShownRow> shown_rows(const Comparison& c, const CompareArgs& a) {
   for (const auto& n : decision.order(kept, a.all)) {
     const Comparison::Row* row = by_name.at(n);
     bool differs = false;
-    for (const auto& v : row->values) differs = differs || v != row->baseline;
+    for (size_t k = 0; k < row->values.size(); ++k)
+      differs = differs || row->values[k] != row->baseline || row->never[k] != row->baseline_never;
     if (a.differing && !differs) continue;  // the same in every run (settings, particle counts)
     out.push_back({row, decision.is_decision(n)});
   }
@@ -58,9 +60,9 @@ void print_table(const Comparison& c, const std::vector<ShownRow>& shown) {
   std::vector<std::vector<std::string>> rows;
   for (const auto& s : shown) {
     const auto& row = *s.row;
-    std::vector<std::string> cells{row.metric, row.baseline ? fmt_value(*row.baseline) : "-"};
+    std::vector<std::string> cells{row.metric, row.baseline_never ? "never" : row.baseline ? fmt_value(*row.baseline) : "-"};
     for (size_t k = 0; k < row.values.size(); ++k) {
-      std::string cell = row.values[k] ? fmt_value(*row.values[k]) : "-";
+      std::string cell = row.never[k] ? "never" : row.values[k] ? fmt_value(*row.values[k]) : "-";
       if (row.percent[k]) {
         char buf[32];
         std::snprintf(buf, sizeof buf, " (%+.1f%%)", *row.percent[k]);
@@ -102,23 +104,26 @@ std::string csv_field(const std::string& s) {
 }
 
 // metric, decision (1/0), the baseline's value, then each run's value and its difference in per cent; an
-// empty field where a value is missing. Numbers in full precision.
+// empty field where a value is missing, "never" for an arrival that never happened (and no per cent). Numbers
+// in full precision.
 void print_csv(const Comparison& c, const std::vector<ShownRow>& shown) {
   auto num = [](const std::optional<double>& v) { return v ? json(*v).dump() : std::string(); };
+  auto value = [&](const std::optional<double>& v, bool never) { return never ? std::string("never") : num(v); };
   std::string line = "metric,decision,";
   line.append(csv_field(c.baseline + " (baseline)"));
   for (const auto& r : c.runs) line.append(",").append(csv_field(r)).append(",").append(csv_field(r + " %"));
   std::printf("%s\n", line.c_str());
   for (const auto& s : shown) {
     line = csv_field(s.row->metric);
-    line.append(s.decision ? ",1," : ",0,").append(num(s.row->baseline));
+    line.append(s.decision ? ",1," : ",0,").append(value(s.row->baseline, s.row->baseline_never));
     for (size_t k = 0; k < s.row->values.size(); ++k)
-      line.append(",").append(num(s.row->values[k])).append(",").append(num(s.row->percent[k]));
+      line.append(",").append(value(s.row->values[k], s.row->never[k])).append(",").append(num(s.row->percent[k]));
     std::printf("%s\n", line.c_str());
   }
 }
 
-// {baseline, baseline_id, runs, run_ids, outlet, rows: [{metric, decision, baseline, values[], percent[]}]}.
+// {baseline, baseline_id, runs, run_ids, outlet, rows: [{metric, decision, baseline, baseline_never, values[],
+// never[], percent[]}]}: an arrival that never happened is null with its never flag true.
 void print_json(const Comparison& c, int64_t base, const std::vector<ShownRow>& shown) {
   std::vector<std::string> names;
   for (const auto& row : c.rows) names.push_back(row.metric);
@@ -132,7 +137,9 @@ void print_json(const Comparison& c, int64_t base, const std::vector<ShownRow>& 
     out["rows"].push_back({{"metric", s.row->metric},
                            {"decision", s.decision},
                            {"baseline", value_or_null(s.row->baseline)},
+                           {"baseline_never", s.row->baseline_never},
                            {"values", values},
+                           {"never", s.row->never},
                            {"percent", percent}});
   }
   std::printf("%s\n", out.dump(2).c_str());
@@ -167,6 +174,10 @@ bool sweep_runs(const RunStore& store, const CompareArgs& a, int64_t& base, std:
 }  // namespace
 
 int compare(const CompareArgs& a) {
+  if (!std::filesystem::exists(a.db)) {  // RunStore would create an empty store at a mistyped path
+    spdlog::error("compare: --db: no run store at {}", a.db);
+    return 2;
+  }
   try {
     RunStore store(a.db);
     std::vector<int64_t> runs = a.ids;

@@ -2,6 +2,7 @@
 #include <filesystem>
 #include <memory>
 
+#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
@@ -17,29 +18,67 @@ namespace {
 
 struct RunArgs {
   std::string scene_path, out_dir, db = "runout.db";
+  std::string variant;  // with a sweep file: the layout to run
   FidelityArgs fidelity;
   bool snapshots = false, quiet = false, no_db = false;
   int threads = 0;
   double checkpoint_every = 0;
 };
 
-// The scene that runs: as written, or resolved at --fidelity / --dp as a sweep resolves its layouts.
+// The scene that runs: as written, or resolved at --fidelity / --dp as a sweep resolves its layouts; or one
+// layout of a sweep file (--variant), resolved as `runout sweep` resolves it.
 struct ResolvedScene {
   std::string json;   // what the manifest hashes
   Fidelity fidelity;  // "scene" (as written: no preset applied), a preset, or "custom" (--dp)
   Scene scene;
+  std::filesystem::path base_dir;  // where the scene's relative paths (the DEM, layers) start
+  std::string sweep, variant;      // a sweep's layout: stored under the sweep's name, as the sweep stores it
 };
+
+// A sweep file names a base scene; a scene has no "base" field (it is refused in a scene).
+bool is_sweep_file(const std::string& text) {
+  const auto j = nlohmann::json::parse(text, nullptr, false);
+  return j.is_object() && j.contains("base");
+}
+
+// The layout `a.variant` of the sweep file at the fidelity the sweep would run it (its own, or --fidelity /
+// --dp), so that the run is the sweep's run of that layout (the same manifest hash).
+ResolvedScene resolve_layout(const RunArgs& a) {
+  const Sweep sweep = load_sweep(a.scene_path);
+  std::string names;
+  const SweepVariant* layout = nullptr;
+  for (const auto& v : sweep.variants) {
+    names += (names.empty() ? "" : ", ") + v.name;
+    if (v.name == a.variant) layout = &v;
+  }
+  if (a.variant.empty())
+    throw SceneError("--variant", a.scene_path + " is a sweep: name the layout to run (accepted: " + names + ")");
+  if (!layout)
+    throw SceneError("--variant", "'" + a.variant + "' is not a layout of sweep " + sweep.name + " (accepted: " + names + ")");
+  ResolvedScene r;
+  r.fidelity = a.fidelity.chosen().value_or(sweep.fidelity);
+  r.json = resolve_variant(sweep.base_json, *layout, r.fidelity);
+  r.base_dir = sweep.base_path.parent_path();
+  r.scene = parse_scene(r.json, r.base_dir);
+  r.sweep = sweep.name;
+  r.variant = layout->name;
+  return r;
+}
 
 // Throws SceneError (exit 2) for an unreadable or refused scene.
 ResolvedScene resolve(const RunArgs& a) {
   ResolvedScene r;
   r.json = read_text(a.scene_path);
+  if (is_sweep_file(r.json)) return resolve_layout(a);
+  if (!a.variant.empty())
+    throw SceneError("--variant", "only for a sweep file (a base scene and its layouts); " + a.scene_path + " is a scene");
+  r.base_dir = std::filesystem::path(a.scene_path).parent_path();
   r.fidelity.name = "scene";
   if (const auto f = a.fidelity.chosen()) {
     r.fidelity = *f;
     r.json = resolve_scene(r.json, r.fidelity);
   }
-  r.scene = parse_scene(r.json, std::filesystem::path(a.scene_path).parent_path());
+  r.scene = parse_scene(r.json, r.base_dir);
   return r;
 }
 
@@ -48,9 +87,12 @@ ResolvedScene resolve(const RunArgs& a) {
 void store_run(RunStore& store, const RunArgs& a, const ResolvedScene& r, const RunSummary& s,
                const std::filesystem::path& out) {
   try {
-    const auto manifest = make_manifest(r.json, std::filesystem::path(a.scene_path).parent_path(), r.fidelity);
+    const auto manifest = make_manifest(r.json, r.base_dir, r.fidelity);
     const std::string fidelity = r.fidelity.dp ? "custom" : r.fidelity.name;
-    const int64_t id = store.put_run(run_record(manifest, r.scene.name, fidelity, s, out));
+    RunStore::RunRecord record = run_record(manifest, r.scene.name, fidelity, s, out);
+    record.sweep = r.sweep;
+    record.variant = r.variant;
+    const int64_t id = store.put_run(record);
     spdlog::info("stored as run {} in {}", id, a.db);
   } catch (const std::exception& e) {
     spdlog::error("could not store the run: {}", e.what());
@@ -75,8 +117,10 @@ int run(const RunArgs& a) {
     }
   }
   const Scene& scene = resolved.scene;
-  const std::filesystem::path out =
-      a.out_dir.empty() ? std::filesystem::path("runs") / scene.name : std::filesystem::path(a.out_dir);
+  // A sweep's layout goes where `runout sweep` puts it (runs/<sweep>/<variant>), so `runout report` finds its maps.
+  const std::filesystem::path out = !a.out_dir.empty()     ? std::filesystem::path(a.out_dir)
+                                    : resolved.sweep.empty() ? std::filesystem::path("runs") / scene.name
+                                                             : std::filesystem::path("runs") / resolved.sweep / resolved.variant;
   stop_on_signals();
   ProgressBar bar(scene.name);
   RunOptions opt;
@@ -115,9 +159,13 @@ int run(const RunArgs& a) {
 Action add_run(CLI::App& app) {
   auto a = std::make_shared<RunArgs>();
   auto* run_cmd = app.add_subcommand("run", "Run one scene and write metrics.json, series/ and snapshots/");
-  run_cmd->footer("Example:\n  runout run scenarios/validation/dam_break_2d.json --dp 0.02 --out runs/dam-break-2d");
-  run_cmd->add_option("scene", a->scene_path, "Scene file (JSON)")->required();  // unreadable: refused by load_scene (2)
-  run_cmd->add_option("--out,-o", a->out_dir, "Output directory (default runs/<scene name>)");
+  run_cmd->footer("Examples:\n  runout run scenarios/validation/dam_break_2d.json --dp 0.02 --out runs/dam-break-2d\n"
+                  "  runout run scenarios/flume/c0_c7.json --variant C3 --fidelity draft");
+  run_cmd->add_option("scene", a->scene_path, "Scene file (JSON), or a sweep file with --variant")->required();  // unreadable: refused by load_scene (2)
+  run_cmd->add_option("--variant", a->variant,
+                      "With a sweep file: the layout to run, resolved as runout sweep resolves it (its structures, the "
+                      "sweep's fidelity unless --fidelity/--dp) and stored under the sweep's name");
+  run_cmd->add_option("--out,-o", a->out_dir, "Output directory (default runs/<scene name>; a sweep's layout: runs/<sweep>/<variant>)");
   a->fidelity.add_to(run_cmd, "the scene as written");
   run_cmd->add_flag("--snapshots", a->snapshots, "Write particle snapshots (.vtp) under OUT/snapshots/");
   run_cmd->add_option("--threads,-j", a->threads, "OpenMP threads (default: all cores)")->check(CLI::Range(0, 1024));

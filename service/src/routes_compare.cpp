@@ -98,8 +98,10 @@ void Server::Impl::routes_compare() {
         diffs.push_back(r.values[k] && r.baseline ? json(*r.values[k] - *r.baseline) : json(nullptr));
         pct.push_back(num(r.percent[k]));
       }
+      // An arrival that never happened: null, with its flag in never / baseline_never (docs/service.md).
       rows.push_back({{"metric", r.metric}, {"decision", decision.is_decision(r.metric)}, {"baseline", num(r.baseline)},
-                      {"values", values}, {"difference", diffs}, {"percent", pct}});
+                      {"baseline_never", r.baseline_never}, {"values", values}, {"never", r.never},
+                      {"difference", diffs}, {"percent", pct}});
     }
     json columns = json::array();
     for (size_t k = 0; k < job_ids.size(); ++k) columns.push_back({{"job", job_ids[k]}, {"run_id", runs[k]}, {"label", c.runs[k]}});

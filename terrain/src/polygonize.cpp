@@ -1,5 +1,7 @@
-// Class grids to polygons (GDALPolygonize) in a GeoPackage: the inundated area and the intensity classes.
+// Class grids to polygons (GDALSieveFilter, then GDALPolygonize) in a GeoPackage: the inundated area and the
+// intensity classes, with the CRS under its EPSG code and each layer's QGIS style in layer_styles.
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <mutex>
@@ -11,9 +13,11 @@
 #include <gdal.h>
 #include <gdal_alg.h>
 #include <gdal_priv.h>
+#include <ogr_spatialref.h>
 #include <ogrsf_frmts.h>
 
 #include "runout/terrain/raster.hpp"
+#include "runout/terrain/terrain.hpp"
 
 namespace runout::terrain {
 namespace {
@@ -28,6 +32,11 @@ using DatasetPtr = std::unique_ptr<GDALDataset, Closer>;
 std::string gdal_message() {
   const char* msg = CPLGetLastErrorMsg();
   return (msg && *msg) ? std::string(msg) : std::string("no details from GDAL");
+}
+
+void register_drivers() {
+  static std::once_flag once;
+  std::call_once(once, [] { GDALAllRegister(); });
 }
 
 [[noreturn]] void fail(const std::string& path, const std::string& what) {
@@ -51,11 +60,34 @@ DatasetPtr class_raster(const Grid& g, const std::string& path) {
   return ds;
 }
 
+// The grid's CRS as the GeoPackage should store it: by its EPSG definition where GDAL identifies the WKT as
+// one (a DEM's .prj is often ESRI WKT without an authority, which the GPKG driver would store as a custom
+// srs_id 100000 that QGIS cannot name), else the WKT as it is.
+OGRSpatialReference layer_crs(const std::string& wkt) {
+  OGRSpatialReference srs;
+  srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  if (wkt.empty() || srs.importFromWkt(wkt.c_str()) != OGRERR_NONE) return srs;
+  int code = 0;
+  if (srs.AutoIdentifyEPSG() == OGRERR_NONE && srs.GetAuthorityCode(nullptr)) code = std::atoi(srs.GetAuthorityCode(nullptr));
+  if (code <= 0) {  // AutoIdentifyEPSG knows UTM and geographic CRSs; PROJ's catalogue the rest (90 %: GDAL's default)
+    if (OGRSpatialReference* best = srs.FindBestMatch(90, "EPSG")) {
+      const char* auth = best->GetAuthorityName(nullptr);
+      if (auth && std::string(auth) == "EPSG" && best->GetAuthorityCode(nullptr)) code = std::atoi(best->GetAuthorityCode(nullptr));
+      best->Release();
+    }
+  }
+  if (code > 0) {
+    OGRSpatialReference epsg;
+    epsg.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    if (epsg.importFromEPSG(code) == OGRERR_NONE) return epsg;
+  }
+  return srs;
+}
+
 void add_layer(GDALDataset& out, const ClassLayer& spec, const std::string& path) {
   if (!spec.classes) throw std::invalid_argument("write_class_polygons: layer '" + spec.name + "' has no grid");
   const Grid& g = *spec.classes;
-  OGRSpatialReference srs;
-  if (!g.crs_wkt.empty()) srs.importFromWkt(g.crs_wkt.c_str());
+  OGRSpatialReference srs = layer_crs(g.crs_wkt);
   OGRLayer* layer = out.CreateLayer(spec.name.c_str(), g.crs_wkt.empty() ? nullptr : &srs, wkbPolygon, nullptr);
   if (!layer) fail(path, "cannot create layer '" + spec.name + "'");
   for (const auto& [name, type] : {std::pair<const char*, OGRFieldType>{"class", OFTInteger}, {"label", OFTString},
@@ -65,6 +97,10 @@ void add_layer(GDALDataset& out, const ClassLayer& spec, const std::string& path
   }
   DatasetPtr raster = class_raster(g, path);
   GDALRasterBandH band = GDALRasterBand::ToHandle(raster->GetRasterBand(1));
+  // No mask: "no class" (0) is a region like the others, so a one-cell speck in the open merges into it (it
+  // goes) and a one-cell hole into its class. 4-connected, as GDALPolygonize traces.
+  if (GDALSieveFilter(band, nullptr, band, kPolygonSieveCells, 4, nullptr, nullptr, nullptr) != CE_None)
+    fail(path, "sieving layer '" + spec.name + "' failed");
   if (GDALPolygonize(band, band, OGRLayer::ToHandle(layer), 0, nullptr, nullptr, nullptr) != CE_None)
     fail(path, "polygonizing layer '" + spec.name + "' failed");
   // Labels and areas, in a transaction (GeoPackage writes are slow one by one).
@@ -81,11 +117,123 @@ void add_layer(GDALDataset& out, const ClassLayer& spec, const std::string& path
   out.CommitTransaction();
 }
 
+// The QGIS convention for styles kept in a GeoPackage (what QGIS writes with "Save as Default" into the
+// file): a table layer_styles, one row per layer with its QML and useAsDefault = 1, which QGIS applies when the
+// layer is loaded. Created through OGR so that it is registered in gpkg_contents as an attributes table.
+void add_layer_styles(GDALDataset& out, const std::vector<ClassLayer>& layers, const std::string& path) {
+  std::vector<const ClassLayer*> styled;
+  for (const auto& l : layers)
+    if (!l.colours.empty()) styled.push_back(&l);
+  if (styled.empty()) return;
+  OGRLayer* t = out.CreateLayer("layer_styles", nullptr, wkbNone, nullptr);
+  if (!t) fail(path, "cannot create the layer_styles table");
+  const std::pair<const char*, OGRFieldType> fields[] = {
+      {"f_table_catalog", OFTString}, {"f_table_schema", OFTString}, {"f_table_name", OFTString},
+      {"f_geometry_column", OFTString}, {"styleName", OFTString},     {"styleQML", OFTString},
+      {"styleSLD", OFTString},        {"useAsDefault", OFTInteger},  {"description", OFTString},
+      {"owner", OFTString},           {"ui", OFTString},             {"update_time", OFTDateTime}};
+  for (const auto& [name, type] : fields) {
+    OGRFieldDefn f(name, type);
+    if (std::string(name) == "useAsDefault") f.SetSubType(OFSTBoolean);
+    if (t->CreateField(&f) != OGRERR_NONE) fail(path, std::string("cannot add field layer_styles.") + name);
+  }
+  for (const ClassLayer* l : styled) {
+    if (l->colours.size() != l->labels.size())
+      throw std::invalid_argument("write_class_polygons: layer '" + l->name + "' has " + std::to_string(l->colours.size()) +
+                                  " colours for " + std::to_string(l->labels.size()) + " classes");
+    std::vector<StyleStop> categories;
+    for (size_t k = 0; k < l->labels.size(); ++k) categories.push_back({static_cast<double>(k + 1), l->colours[k], l->labels[k]});
+    OGRFeature f(t->GetLayerDefn());
+    f.SetField("f_table_catalog", "");
+    f.SetField("f_table_schema", "");
+    f.SetField("f_table_name", l->name.c_str());
+    f.SetField("f_geometry_column", out.GetLayerByName(l->name.c_str())->GetGeometryColumn());
+    f.SetField("styleName", l->name.c_str());
+    f.SetField("styleQML", vector_class_qml("class", categories).c_str());
+    f.SetField("styleSLD", "");
+    f.SetField("useAsDefault", 1);
+    f.SetField("description", ("runout: " + l->name + " coloured by class").c_str());
+    f.SetField("owner", "");
+    f.SetField("ui", "");
+    if (t->CreateFeature(&f) != OGRERR_NONE) fail(path, "cannot store the style of layer '" + l->name + "'");
+  }
+}
+
+// One layer of structures (lines or polygons) with their fields; nothing when none is of this shape.
+void add_structure_layer(GDALDataset& out, const std::string& name, bool areas, const std::vector<StructureInfo>& all,
+                         const std::string& crs_wkt, const std::vector<double>& retained,
+                         const std::vector<double>& upstream, const std::string& path) {
+  std::vector<size_t> which;
+  for (size_t k = 0; k < all.size(); ++k)
+    if ((all[k].kind != StructureKind::check_dam) == areas && all[k].outline.size() >= (areas ? 3u : 2u)) which.push_back(k);
+  if (which.empty()) return;
+  OGRSpatialReference srs = layer_crs(crs_wkt);
+  OGRLayer* layer = out.CreateLayer(name.c_str(), crs_wkt.empty() ? nullptr : &srs, areas ? wkbPolygon : wkbLineString, nullptr);
+  if (!layer) fail(path, "cannot create layer '" + name + "'");
+  std::vector<std::pair<std::string, OGRFieldType>> fields = {
+      {"name", OFTString},           {"type", OFTString},           {"crest_elevation_m", OFTReal},
+      {"wall_height_m", OFTReal},    {"storage_capacity_m3", OFTReal}, {"cut_volume_m3", OFTReal},
+      {"fill_volume_m3", OFTReal},   {"retained_volume_m3", OFTReal}};
+  if (!areas) fields.push_back({"upstream_volume_m3", OFTReal});
+  if (areas) fields.push_back({"area_m2", OFTReal});
+  for (const auto& [field, type] : fields) {
+    OGRFieldDefn f(field.c_str(), type);
+    if (layer->CreateField(&f) != OGRERR_NONE) fail(path, "cannot add field " + name + "." + field);
+  }
+  auto real = [](OGRFeature& f, const char* field, double v) {
+    if (std::isfinite(v)) f.SetField(field, v);  // unknown stays null
+  };
+  out.StartTransaction();
+  for (size_t k : which) {
+    const StructureInfo& st = all[k];
+    OGRFeature f(layer->GetLayerDefn());
+    f.SetField("name", st.name.c_str());
+    f.SetField("type", kind_name(st.kind));
+    real(f, "crest_elevation_m", st.crest_elevation);
+    real(f, "wall_height_m", st.wall_height_built);
+    real(f, "storage_capacity_m3", st.storage_capacity);
+    real(f, "cut_volume_m3", st.cut_volume);
+    real(f, "fill_volume_m3", st.fill_volume);
+    real(f, "retained_volume_m3", k < retained.size() ? retained[k] : NAN);
+    OGRLineString line;
+    for (const auto& p : st.outline) line.addPoint(p[0], p[1]);
+    if (areas) {
+      OGRLinearRing ring;
+      ring.addSubLineString(&line);
+      ring.closeRings();
+      OGRPolygon polygon;
+      polygon.addRing(&ring);
+      real(f, "area_m2", polygon.get_Area());
+      f.SetGeometry(&polygon);
+    } else {
+      real(f, "upstream_volume_m3", k < upstream.size() ? upstream[k] : NAN);
+      f.SetGeometry(&line);
+    }
+    if (layer->CreateFeature(&f) != OGRERR_NONE) fail(path, "cannot write structure '" + st.name + "'");
+  }
+  out.CommitTransaction();
+}
+
 }  // namespace
 
+void write_structure_layers(const std::string& gpkg_path, const std::vector<StructureInfo>& structures,
+                            const std::string& crs_wkt, const std::vector<double>& retained,
+                            const std::vector<double>& upstream) {
+  if (structures.empty()) return;
+  register_drivers();
+  CPLErrorReset();
+  CPLPushErrorHandler(CPLQuietErrorHandler);
+  struct Pop {
+    ~Pop() { CPLPopErrorHandler(); }
+  } pop;
+  DatasetPtr out(GDALDataset::Open(gpkg_path.c_str(), GDAL_OF_VECTOR | GDAL_OF_UPDATE));
+  if (!out) fail(gpkg_path, "cannot open the GeoPackage to add the structures");
+  add_structure_layer(*out, "check_dams", false, structures, crs_wkt, retained, upstream, gpkg_path);
+  add_structure_layer(*out, "structure_areas", true, structures, crs_wkt, retained, upstream, gpkg_path);
+}
+
 void write_class_polygons(const std::string& path, const std::vector<ClassLayer>& layers) {
-  static std::once_flag once;
-  std::call_once(once, [] { GDALAllRegister(); });
+  register_drivers();
   CPLErrorReset();
   CPLPushErrorHandler(CPLQuietErrorHandler);
   struct Pop {
@@ -103,6 +251,7 @@ void write_class_polygons(const std::string& path, const std::vector<ClassLayer>
     if (!out) fail(path, "cannot create the GeoPackage");
     try {
       for (const auto& l : layers) add_layer(*out, l, path);
+      add_layer_styles(*out, layers, path);
     } catch (...) {
       out.reset();
       fs::remove(tmp, ec);

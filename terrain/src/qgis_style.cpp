@@ -31,7 +31,42 @@ std::string number(double v) {
   return buf;
 }
 
+// "#rrggbb" as QGIS writes a colour ("r,g,b,a").
+std::string qgis_colour(const std::string& hex, double shade = 1.0) {
+  if (hex.size() != 7 || hex[0] != '#') throw std::invalid_argument("colour '" + hex + "' is not #rrggbb");
+  std::string out;
+  for (int k = 0; k < 3; ++k)
+    out += std::to_string(static_cast<int>(std::stoi(hex.substr(1 + 2 * k, 2), nullptr, 16) * shade)) + ",";
+  return out + "255";
+}
+
 }  // namespace
+
+std::string vector_class_qml(const std::string& field, const std::vector<StyleStop>& categories) {
+  if (categories.empty()) throw std::invalid_argument("vector_class_qml: no categories for field '" + field + "'");
+  std::ostringstream q;
+  q << "<!DOCTYPE qgis PUBLIC 'http://mrcc.com/qgis.dtd' 'SYSTEM'>\n"
+    << "<qgis version=\"3.28.0\" styleCategories=\"Symbology\">\n"
+    << "  <renderer-v2 type=\"categorizedSymbol\" attr=\"" << xml_escape(field)
+    << "\" symbollevels=\"0\" enableorderby=\"0\" forceraster=\"0\">\n    <categories>\n";
+  for (size_t k = 0; k < categories.size(); ++k)
+    q << "      <category value=\"" << number(categories[k].value) << "\" symbol=\"" << k << "\" label=\""
+      << xml_escape(categories[k].label) << "\" render=\"true\"/>\n";
+  q << "    </categories>\n    <symbols>\n";
+  for (size_t k = 0; k < categories.size(); ++k)
+    q << "      <symbol type=\"fill\" name=\"" << k << "\" alpha=\"0.8\" clip_to_extent=\"1\" force_rhr=\"0\">\n"
+      << "        <layer class=\"SimpleFill\" enabled=\"1\" pass=\"0\" locked=\"0\">\n          <Option type=\"Map\">\n"
+      << "            <Option type=\"QString\" name=\"color\" value=\"" << qgis_colour(categories[k].colour) << "\"/>\n"
+      << "            <Option type=\"QString\" name=\"outline_color\" value=\"" << qgis_colour(categories[k].colour, 0.6)
+      << "\"/>\n            <Option type=\"QString\" name=\"outline_style\" value=\"solid\"/>\n"
+      << "            <Option type=\"QString\" name=\"outline_width\" value=\"0.26\"/>\n"
+      << "            <Option type=\"QString\" name=\"outline_width_unit\" value=\"MM\"/>\n"
+      << "            <Option type=\"QString\" name=\"style\" value=\"solid\"/>\n          </Option>\n"
+      << "        </layer>\n      </symbol>\n";
+  q << "    </symbols>\n  </renderer-v2>\n  <blendMode>0</blendMode>\n  <featureBlendMode>0</featureBlendMode>\n"
+    << "  <layerOpacity>1</layerOpacity>\n</qgis>\n";
+  return q.str();
+}
 
 void write_qml(const std::string& path, const std::vector<StyleStop>& stops, bool classes) {
   if (stops.empty()) throw std::invalid_argument("write_qml: no colour stops for '" + path + "'");
@@ -49,7 +84,9 @@ void write_qml(const std::string& path, const std::vector<StyleStop>& stops, boo
     q << "    <rasterrenderer type=\"singlebandpseudocolor\" band=\"1\" opacity=\"0.8\" alphaBand=\"-1\" "
       << "classificationMin=\"" << number(stops.front().value) << "\" classificationMax=\"" << number(stops.back().value)
       << "\" nodataColor=\"\">\n      <rastershader>\n"
-      << "        <colorrampshader colorRampType=\"INTERPOLATED\" classificationMode=\"1\" clip=\"0\" minimumValue=\""
+      // clip="1": values outside the ramp (a depth under the inundation threshold) are not painted, as on the
+      // web map, rather than in the end colours over the whole window.
+      << "        <colorrampshader colorRampType=\"INTERPOLATED\" classificationMode=\"1\" clip=\"1\" minimumValue=\""
       << number(stops.front().value) << "\" maximumValue=\"" << number(stops.back().value) << "\">\n";
     for (const auto& s : stops)
       q << "          <item value=\"" << number(s.value) << "\" color=\"" << s.colour << "\" alpha=\"255\" label=\""

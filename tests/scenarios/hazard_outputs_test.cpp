@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 
 #include <gdal_priv.h>
 #include <nlohmann/json.hpp>
@@ -56,6 +57,7 @@ struct Band {
   std::string description, unit, scene;
   bool nodata_set = false;
   double max = 0;
+  std::vector<float> values;
 };
 
 Band read_band(const fs::path& p) {
@@ -78,6 +80,7 @@ Band read_band(const fs::path& p) {
             CE_None);
   for (float x : v)
     if (!std::isnan(x)) b.max = std::max(b.max, static_cast<double>(x));
+  b.values = std::move(v);
   return b;
 }
 
@@ -137,6 +140,92 @@ TEST(HazardOutputs, EveryRasterDescribesItselfAndAgreesWithTheMetrics) {
   EXPECT_NEAR(classes, area, 1e-9 * area);
 }
 
+std::string file_text(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// Cells the flow never reached are nodata, not 0, in every raster of the maxima and the deposit, and the QGIS
+// styles do not paint what lies outside their ramp (clip="1"): before, every dry cell of the window held 0 and
+// was painted in the ramp's first colour over the basemap.
+TEST(HazardOutputs, DryCellsAreNodataAndTheStylesDoNotPaintThem) {
+  TempDir tmp;
+  RunOptions opt;
+  opt.out_dir = tmp.path;
+  opt.threads = 2;
+  const RunSummary sum = run_scene(parse_scene(short_flume().dump()), opt);
+  ASSERT_EQ(sum.status, "completed") << sum.error;
+  const double threshold = json::parse(sum.metrics_json).at("terrain").at("inundation").at("threshold_m");
+  const fs::path r = tmp.path / "rasters";
+  const Band depth = read_band(r / "max_depth.tif");
+  size_t dry = 0;
+  for (float v : depth.values) {
+    EXPECT_NE(v, 0.0f) << "a dry cell holds 0 rather than nodata";
+    dry += std::isnan(v);
+  }
+  ASSERT_GT(dry, depth.values.size() / 10) << "after 0.6 s most of the corridor's window is still dry";
+  ASSERT_LT(dry, depth.values.size());
+  for (const char* name : {"max_speed", "max_hv", "max_pressure"}) {
+    SCOPED_TRACE(name);
+    const Band b = read_band(r / (std::string(name) + ".tif"));
+    ASSERT_EQ(b.values.size(), depth.values.size());
+    for (size_t c = 0; c < b.values.size(); ++c) {
+      if (std::isnan(depth.values[c])) EXPECT_TRUE(std::isnan(b.values[c])) << "cell " << c << " is dry but holds " << b.values[c];
+      else if (std::string(name) != "max_pressure" || depth.values[c] >= threshold) EXPECT_FALSE(std::isnan(b.values[c])) << c;
+    }
+  }
+  for (float v : read_band(r / "deposit_depth.tif").values) EXPECT_NE(v, 0.0f) << "no deposit is nodata, not 0";
+  for (const char* name : {"max_depth", "max_speed", "deposit_depth", "max_hv", "arrival_time", "max_pressure"}) {
+    const std::string qml = file_text(r / (std::string(name) + ".qml"));
+    EXPECT_NE(qml.find("clip=\"1\""), std::string::npos) << name;
+    EXPECT_EQ(qml.find("clip=\"0\""), std::string::npos) << name;
+  }
+}
+
+// The structures as built are layers of the run's hazard.gpkg: the check dam's axis as a line and the basin as a
+// polygon, each with the numbers metrics.json gives it (crest, capacity, what it held at the end).
+TEST(HazardOutputs, TheBuiltStructuresAreLayersOfTheGeoPackage) {
+  TempDir tmp;
+  json s = short_flume();
+  std::ifstream in(kSource / "scenarios/flume/flume.json");
+  const json flume = json::parse(in);
+  for (const auto& st : flume.at("structures"))
+    if (st.at("name") == "CD_P1" || st.at("name") == "RB1_P2") s["structures"].push_back(st);
+  RunOptions opt;
+  opt.out_dir = tmp.path;
+  opt.threads = 2;
+  const RunSummary sum = run_scene(parse_scene(s.dump()), opt);
+  ASSERT_EQ(sum.status, "completed") << sum.error;
+  std::map<std::string, json> metrics;
+  const json m = json::parse(sum.metrics_json);
+  for (const auto& st : m.at("terrain").at("structures")) metrics[st.at("name")] = st;
+  ASSERT_EQ(metrics.size(), 2u);
+  std::unique_ptr<GDALDataset> gpkg(GDALDataset::Open((tmp.path / "rasters" / "hazard.gpkg").c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY));
+  ASSERT_TRUE(gpkg);
+  OGRLayer* dams = gpkg->GetLayerByName("check_dams");
+  OGRLayer* areas = gpkg->GetLayerByName("structure_areas");
+  ASSERT_TRUE(dams && areas);
+  ASSERT_EQ(dams->GetFeatureCount(), 1);
+  ASSERT_EQ(areas->GetFeatureCount(), 1);
+  std::unique_ptr<OGRFeature> dam(dams->GetNextFeature()), basin(areas->GetNextFeature());
+  EXPECT_STREQ(dam->GetFieldAsString("name"), "CD_P1");
+  EXPECT_STREQ(dam->GetFieldAsString("type"), "check_dam");
+  EXPECT_EQ(wkbFlatten(dam->GetGeometryRef()->getGeometryType()), wkbLineString);
+  EXPECT_NEAR(dam->GetGeometryRef()->toLineString()->get_Length(), 0.44, 1e-9);  // the axis, 5000000.38 to .82
+  for (const char* f : {"crest_elevation_m", "storage_capacity_m3", "retained_volume_m3", "upstream_volume_m3"})
+    EXPECT_DOUBLE_EQ(dam->GetFieldAsDouble(f), metrics["CD_P1"].at(f).get<double>()) << f;
+  EXPECT_GT(dam->GetFieldAsDouble("wall_height_m"), 0.05);  // about the 0.1 m crest height
+  EXPECT_STREQ(basin->GetFieldAsString("name"), "RB1_P2");
+  EXPECT_STREQ(basin->GetFieldAsString("type"), "retention_basin");
+  EXPECT_EQ(wkbFlatten(basin->GetGeometryRef()->getGeometryType()), wkbPolygon);
+  EXPECT_GT(basin->GetFieldAsDouble("area_m2"), 0.0);
+  for (const char* f : {"crest_elevation_m", "storage_capacity_m3", "cut_volume_m3", "retained_volume_m3"})
+    EXPECT_DOUBLE_EQ(basin->GetFieldAsDouble(f), metrics["RB1_P2"].at(f).get<double>()) << f;
+  OGRSpatialReference want;
+  want.importFromEPSG(32632);
+  EXPECT_TRUE(dams->GetSpatialRef() && dams->GetSpatialRef()->IsSame(&want));
+}
+
 TEST(HazardOutputs, IntensityThresholdsAreReadAndRefusedOutOfRange) {
   json s = short_flume();
   s["output"]["intensity"] = {{"high_depth", 0.5}, {"medium_depth", 0.1}};
@@ -166,6 +255,7 @@ TEST(HazardOutputs, SweepDifferenceRastersAreTheLayoutMinusTheBaseline) {
   // C0's window is 4 x 3 cells of 0.5 m; C1's is shifted one cell east (its corridor differs).
   terrain::Grid c0(4, 3, 500000, 5000003, 0.5, 0.5, crs, 0.25f), c1(4, 3, 500000.5, 5000003, 0.5, 0.5, crs, 1.0f);
   c1.at(3, 2) = 0.0f;
+  c0.at(2, 1) = c1.at(1, 1) = terrain::Grid::nodata;  // the same cell, dry in both layouts
   for (const char* name : {"max_depth", "max_hv"}) {
     terrain::write_geotiff((tmp.path / "C0" / "rasters" / (std::string(name) + ".tif")).string(), c0);
     terrain::write_geotiff((tmp.path / "C1" / "rasters" / (std::string(name) + ".tif")).string(), c1);
@@ -179,6 +269,8 @@ TEST(HazardOutputs, SweepDifferenceRastersAreTheLayoutMinusTheBaseline) {
   EXPECT_FLOAT_EQ(d.at(1, 0), 0.75f);   // both
   EXPECT_FLOAT_EQ(d.at(4, 0), 1.0f);    // only C1
   EXPECT_FLOAT_EQ(d.at(4, 2), 0.0f);
+  EXPECT_TRUE(std::isnan(d.at(2, 1))) << "dry in both: nodata, not a difference of 0";
+  EXPECT_NE(file_text(tmp.path / "C1" / "rasters" / "diff_max_depth.qml").find("clip=\"1\""), std::string::npos);
   const Band b = read_band(tmp.path / "C1" / "rasters" / "diff_max_hv.tif");
   EXPECT_EQ(b.unit, "m2/s");
   EXPECT_TRUE(fs::is_regular_file(tmp.path / "C1" / "rasters" / "diff_max_hv.qml"));

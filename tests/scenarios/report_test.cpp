@@ -128,7 +128,7 @@ TEST(Report, RankingTableListsTheLayoutsByTheirStoredOutletDischargeWithTheStore
 TEST(Report, IsSelfContainedWithAChartPerSectionAndStructureAndAMapPerLayout) {
   const std::string html = report_html();
   const auto srcs = all(html, std::regex("<img[^>]* src=\"([^\"]*)\""));
-  ASSERT_EQ(srcs.size(), 3u) << "one map per terrain layout";
+  EXPECT_EQ(all(html, std::regex("<img alt=\"maximum flow depth of ")).size(), 3u) << "one depth map per terrain layout";
   for (const auto& s : srcs) EXPECT_EQ(s.rfind("data:image/png;base64,iVBORw0KGgo", 0), 0u) << s.substr(0, 60);  // a PNG
   EXPECT_EQ(html.find("http://"), std::string::npos);
   EXPECT_EQ(html.find("https://"), std::string::npos);
@@ -210,4 +210,82 @@ TEST(Report, EscapesTextAndRefusesABaselineOrSweepItDoesNotHave) {
   EXPECT_FALSE(fs::exists(f.dir / "x.html"));
   in.baseline_id = 99999;
   EXPECT_THROW(study_report_html(*f.store, in), std::invalid_argument);
+}
+
+// The intensity classes of every layout and the sweep's difference rasters of every layout but the baseline
+// are maps of the report too (they were written but not shown), each with its legend.
+TEST(Report, ShowsTheIntensityAndDifferenceRastersAsMaps) {
+  const std::string html = report_html();
+  for (const std::string layout : {"C0", "C2", "C4"}) {
+    SCOPED_TRACE(layout);
+    const std::string section = between(html, "<section class=\"layout\" id=\"layout-" + layout + "\">", "</section>");
+    ASSERT_FALSE(section.empty());
+    const std::string intensity = between(section, "<figure class=\"map hazard\" data-raster=\"intensity\">", "</figure>");
+    EXPECT_NE(intensity.find("<img class=\"over\" alt=\"intensity classes of " + layout + "\" src=\"data:image/png;base64,iVBORw0KGgo"),
+              std::string::npos);
+    for (const char* label : {"low", "medium", "high"}) EXPECT_NE(intensity.find(std::string(">") + label + "</text>"), std::string::npos);
+    const bool baseline = layout == "C0";
+    for (const std::string diff : {"diff_max_depth", "diff_max_hv"}) {
+      const std::string fig = between(section, "<figure class=\"map hazard\" data-raster=\"" + diff + "\">", "</figure>");
+      EXPECT_EQ(fig.empty(), baseline) << diff;
+      if (!baseline) EXPECT_NE(fig.find("this layout minus the sweep's baseline"), std::string::npos) << diff;
+    }
+  }
+}
+
+// Ranking ties, the loads' sign and the words of the table, and a print stylesheet, on a store of made-up runs:
+// C2's and C3's Q_m differ in their last bits only (they print 0.02215 both), so they tie and go by name,
+// sharing rank 1; C2's dam load turns negative late, which the chart marks with a zero line and the text
+// explains.
+TEST(Report, TiesGoByNameAndTheLoadsSignAndTheWordsAreExplained) {
+  const fs::path dir = fs::temp_directory_path() / "runout-report-ties";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  {
+    RunStore store(dir / "runout.db");
+    StudyReportInput in{"ties", {}, 0};
+    const std::vector<std::pair<std::string, double>> qm = {{"C0", 0.05}, {"C1", 0.03}, {"C2", 0.022150000000000003}, {"C3", 0.02215}};
+    for (const auto& [variant, q] : qm) {
+      RunStore::RunRecord r;
+      r.manifest_hash = "ties-" + variant;
+      r.sweep = "ties";
+      r.variant = variant;
+      r.scene = "flume/" + variant;
+      r.status = "completed";
+      json monitors = json::array({{{"type", "section"}, {"name", "Outlet"}, {"peak_discharge_m3_s", q}}});
+      if (variant == "C2") {
+        monitors.push_back({{"type", "structure_load"}, {"name", "CD_P1"}, {"peak_force_n", 30.0}});
+        r.series_csv["structure_load_CD_P1"] = "t,force_n\n0,0\n0.5,30\n1,12\n1.5,-25\n";
+      }
+      r.metrics_json = json{{"monitors", monitors}}.dump();
+      const int64_t id = store.put_run(r);
+      if (variant == "C0") in.baseline_id = id;
+      in.runs.push_back({id, variant, {}});
+    }
+    const std::string html = study_report_html(store, in);
+    const std::string body = between(between(html, "<table id=\"ranking\"", "</table>"), "<tbody>", "</tbody>");
+    const auto ranks = all(body, std::regex("<tr[^>]*><td>([0-9]+)</td><th scope=\"row\"><a href=\"#layout-([^\"]+)\""), 0);
+    std::vector<std::string> order;
+    for (const auto& row : ranks) {
+      std::smatch m;
+      std::regex_search(row, m, std::regex("<td>([0-9]+)</td>.*#layout-([^\"]+)"));
+      order.push_back(m[1].str() + " " + m[2].str());
+    }
+    EXPECT_EQ(order, (std::vector<std::string>{"1 C2", "1 C3", "3 C1", "4 C0"}));
+    EXPECT_NE(html.find("tie: they share a rank and go by name"), std::string::npos);
+    // The loads: the sign convention said, the zero line drawn where the load turns negative.
+    const std::string loads = between(html, "<section id=\"loads\">", "</section>");
+    EXPECT_NE(loads.find("<b>positive</b>, the flow pushes the structure downstream"), std::string::npos) << loads.substr(0, 600);
+    EXPECT_NE(loads.find("<b>negative</b>, the net push points upstream"), std::string::npos);
+    EXPECT_NE(between(loads, "data-monitor=\"CD_P1\"", "</figure>").find("class=\"zero\""), std::string::npos);
+    // "retained" and "upstream" in words beside the table.
+    EXPECT_NE(html.find("<b>retained</b>: the flow volume the structure holds at the end"), std::string::npos);
+    EXPECT_NE(html.find("<b>upstream</b> (check dams): everything upstream of the dam's axis"), std::string::npos);
+    // A print stylesheet: no navigation, tables not cut off in a scroll box, figures not split over pages.
+    const std::string print = between(html, "@media print{", "}}");
+    EXPECT_NE(print.find("nav{display:none}"), std::string::npos) << print;
+    EXPECT_NE(print.find(".scroll{overflow:visible}"), std::string::npos) << print;
+    EXPECT_NE(print.find("break-inside:avoid"), std::string::npos) << print;
+  }
+  fs::remove_all(dir);
 }

@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -22,9 +23,12 @@
 // links SQLite, so the library is there; only its header is used here.
 #include <sqlite3.h>
 
+#include <nlohmann/json.hpp>
+
 #include "runout/scenarios/store.hpp"
 
 namespace fs = std::filesystem;
+using json = nlohmann::json;
 using namespace runout;
 
 namespace {
@@ -345,6 +349,48 @@ TEST(CompareRuns, PercentAgainstBaselineAndNoneWhenBaseIsZeroOrMissing) {
   EXPECT_FALSE(by["only_base"].values[0].has_value());
 
   EXPECT_NE(error_of([&] { compare_runs(store, {r1, 999}, base); }).find("no run with id 999"), std::string::npos);
+}
+
+// An arrival time of -1 is "never", not a number: no value, its flag set, and no per cent against it or of it
+// (before, a zone the flow never reached read -1 and -166.7 % against an arrival at 1.5 s).
+TEST(CompareRuns, AnArrivalThatNeverHappenedIsNeverNotMinusOne) {
+  TempDir tmp;
+  RunStore store(tmp.file("runout.db"));
+  const char* zone = "terrain.protected_zones.Village.arrival_time_s";
+  auto metrics = [](double arrival, double depth) {
+    return json{{"terrain", {{"protected_zones", {{{"name", "Village"}, {"arrival_time_s", arrival}, {"max_depth_m", depth}}}}}}}.dump();
+  };
+  const int64_t base = store.put_run(record("b", "flume", "C0", metrics(1.5, 0.2)));
+  const int64_t never = store.put_run(record("n", "flume", "C4", metrics(-1, 0)));
+  const int64_t later = store.put_run(record("l", "flume", "C2", metrics(2.0, 0.1)));
+
+  const Comparison c = compare_runs(store, {never, later}, base);
+  const auto row = std::find_if(c.rows.begin(), c.rows.end(), [&](const auto& r) { return r.metric == zone; });
+  ASSERT_NE(row, c.rows.end());
+  EXPECT_EQ(row->baseline, 1.5);
+  EXPECT_FALSE(row->baseline_never);
+  EXPECT_EQ(row->never, (std::vector<bool>{true, false}));
+  EXPECT_FALSE(row->values[0].has_value());
+  EXPECT_FALSE(row->percent[0].has_value());
+  EXPECT_EQ(row->values[1], 2.0);
+  EXPECT_NEAR(*row->percent[1], 33.333, 1e-3);
+  // A depth of 0 is a depth, not "never".
+  const auto depth = std::find_if(c.rows.begin(), c.rows.end(), [](const auto& r) { return r.metric.find("max_depth_m") != std::string::npos; });
+  EXPECT_EQ(depth->never, (std::vector<bool>{false, false}));
+  EXPECT_EQ(depth->values[0], 0.0);
+
+  // Against a baseline that never arrived: no per cent, the runs' own times kept.
+  const Comparison b = compare_runs(store, {base, never}, never);
+  const auto brow = std::find_if(b.rows.begin(), b.rows.end(), [&](const auto& r) { return r.metric == zone; });
+  EXPECT_TRUE(brow->baseline_never);
+  EXPECT_FALSE(brow->baseline.has_value());
+  EXPECT_EQ(brow->values[0], 1.5);
+  EXPECT_FALSE(brow->percent[0].has_value());
+  EXPECT_EQ(brow->never, (std::vector<bool>{false, true}));
+
+  EXPECT_TRUE(means_never("monitors.section.S1.arrival_time_s", -1));
+  EXPECT_FALSE(means_never("monitors.section.S1.arrival_time_s", 0));
+  EXPECT_FALSE(means_never("monitors.structure_load.D.late_force_n", -1));  // a pull is a value
 }
 
 // ---------------------------------------------------------------------------------------------------------

@@ -77,6 +77,8 @@ class Cli : public ::testing::Test {
   fs::path dir_;
 };
 
+std::vector<std::string> csv_fields(const std::string& line);
+
 // A tiny valid scene: 10 x 10 water particles in a tank, 5 ms.
 json good_scene() {
   return json::parse(R"({
@@ -240,7 +242,60 @@ TEST_F(Cli, ReportWritesTheSweepsPageAndRefusesWhatItCannotFind) {
   EXPECT_FALSE(fs::exists(dir_ / "none.db"));
   EXPECT_EQ(run("report --db " + q(db)), 2);
   EXPECT_NE(output().find("--sweep is required"), std::string::npos) << output();
+  // A mistyped --runs: refused, naming the folder it looked for, rather than a page of "No map".
+  EXPECT_EQ(run("report --sweep cli-sweep --db " + q(db) + " --runs " + q(dir_ / "rusn") + " --out " + q(out)), 2);
+  EXPECT_NE(output().find("--runs: no folder " + (dir_ / "rusn" / "cli-sweep").string()), std::string::npos) << output();
   EXPECT_FALSE(fs::exists(out));
+}
+
+// `runout run SWEEP.json --variant NAME` runs one layout as the sweep resolves it: the same manifest as the
+// sweep's run of it (so the store finds it), stored under the sweep's name and variant, in runs/<sweep>/<variant>
+// by default; without --variant, or with a name that is not a layout, it is refused naming the layouts.
+TEST_F(Cli, RunOneLayoutOfASweepWithVariant) {
+  write("base.json", good_scene().dump());
+  const fs::path sweep = write("sweep.json", R"({"name": "cli-sweep", "base": "base.json",
+                                                 "variants": [{"name": "A"}, {"name": "B", "structures": []}]})");
+  const fs::path db = dir_ / "runs.db";
+  EXPECT_EQ(run("run " + q(sweep) + " --no-db --quiet"), 2);
+  EXPECT_NE(output().find("--variant: " + sweep.string() + " is a sweep: name the layout to run (accepted: A, B)"),
+            std::string::npos) << output();
+  EXPECT_EQ(run("run " + q(sweep) + " --variant C3 --no-db --quiet"), 2);
+  EXPECT_NE(output().find("--variant: 'C3' is not a layout of sweep cli-sweep (accepted: A, B)"), std::string::npos)
+      << output();
+  EXPECT_EQ(run("run " + q(dir_ / "base.json") + " --variant A --no-db --quiet"), 2);
+  EXPECT_NE(output().find("--variant: only for a sweep file"), std::string::npos) << output();
+  // The shipped flume study: its layouts are named.
+  EXPECT_EQ(run("run " + q(fs::path(RUNOUT_SOURCE_DIR) / "scenarios/flume/c0_c7.json") + " --variant C9 --no-db"), 2);
+  EXPECT_NE(output().find("(accepted: C0, C1, C2, C3, C4, C5, C6, C7)"), std::string::npos) << output();
+
+  // Layout B alone, from the test's folder (runs/<sweep>/<variant> is relative to it), then the whole sweep:
+  // the sweep finds B stored and runs only A.
+  const std::string cd = "cd " + q(dir_) + " && ";
+  ASSERT_EQ(run_shell(cd + q(kRunout) + " run sweep.json --variant B --db runs.db --threads 1 --quiet > output.txt 2>&1"), 0)
+      << output();
+  EXPECT_TRUE(fs::is_regular_file(dir_ / "runs" / "cli-sweep" / "B" / "metrics.json"));
+  {
+    const RunStore store(db);
+    const auto runs = store.list_runs("cli-sweep");
+    ASSERT_EQ(runs.size(), 1u);
+    EXPECT_EQ(runs[0].variant, "B");
+    EXPECT_EQ(runs[0].scene, "cli-good/B");
+  }
+  ASSERT_EQ(run_shell(cd + q(kRunout) + " sweep sweep.json --db runs.db --threads 1 --no-compare > output.txt 2>&1"), 0)
+      << output();
+  const RunStore store(db);
+  EXPECT_EQ(store.list_runs("cli-sweep").size(), 2u) << output();
+  EXPECT_NE(output().find("B completed, already stored"), std::string::npos) << output();
+}
+
+// `compare --db` at a mistyped path is refused (exit 2, naming the path) and creates nothing there.
+TEST_F(Cli, CompareRefusesAStoreThatIsNotThere) {
+  const fs::path wrong = dir_ / "runuot.db";
+  EXPECT_EQ(run("compare --sweep flume-C0-C7 --db " + q(wrong)), 2);
+  EXPECT_NE(output().find("--db: no run store at " + wrong.string()), std::string::npos) << output();
+  EXPECT_FALSE(fs::exists(wrong));
+  EXPECT_EQ(run("compare --runs 1 2 --db " + q(wrong)), 2);
+  EXPECT_FALSE(fs::exists(wrong));
 }
 
 TEST_F(Cli, RunRefusesFidelityAndDpTogether) {
@@ -307,6 +362,62 @@ TEST_F(Cli, RunAtAFidelityTakesTheScenesDefaultLadder) {
   // As written, the same scene is another run (fidelity "scene"), not the draft one reused.
   ASSERT_EQ(run("run " + q(scene) + " --out " + q(dir_ / "as-written") + " --db " + q(db) + " --threads 1 --quiet"), 0);
   EXPECT_NE(output().find("stored as run 2 "), std::string::npos) << output();
+}
+
+// A protected zone the flow never reached (arrival -1 in the store) reads "never" in compare's table, CSV and
+// JSON, with no per cent of it or against it (it read "-1 (-166.7%)" against an arrival at 1.5 s).
+TEST_F(Cli, CompareShowsNeverForAnArrivalThatNeverHappened) {
+  const fs::path db = dir_ / "runs.db";
+  {
+    RunStore store(db);
+    const std::vector<std::pair<std::string, double>> layouts = {{"C0", 1.5}, {"C1", -1}, {"C2", 2.0}};
+    for (const auto& [variant, arrival] : layouts) {
+      RunStore::RunRecord r;
+      r.manifest_hash = "never-" + variant;
+      r.sweep = "never-sweep";
+      r.variant = variant;
+      r.status = "completed";
+      r.metrics_json = json{{"terrain", {{"protected_zones", {{{"name", "Village"}, {"arrival_time_s", arrival}}}}}}}.dump();
+      store.put_run(r);
+    }
+  }
+  const std::string metric = "terrain.protected_zones.Village.arrival_time_s";
+  ASSERT_EQ(run_split("compare --sweep never-sweep --db " + q(db)), 0) << output();
+  const std::string table = standard_output();
+  const size_t at = table.find(metric);
+  ASSERT_NE(at, std::string::npos) << table;
+  const std::string row = table.substr(at, table.find('\n', at) - at);
+  EXPECT_NE(row.find("never"), std::string::npos) << row;
+  EXPECT_NE(row.find("2 (+33.3%)"), std::string::npos) << row;
+  EXPECT_EQ(row.find("-1"), std::string::npos) << row;
+  EXPECT_EQ(row.find("-166"), std::string::npos) << row;
+
+  ASSERT_EQ(run_split("compare --sweep never-sweep --format csv --db " + q(db)), 0) << output();
+  std::istringstream csv(standard_output());
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(csv_fields(line), (std::vector<std::string>{"metric", "decision", "C0 (baseline)", "C1", "C1 %", "C2", "C2 %"}));
+  std::getline(csv, line);
+  EXPECT_EQ(csv_fields(line), (std::vector<std::string>{metric, "1", "1.5", "never", "", "2.0", "33.33333333333333"}));
+
+  ASSERT_EQ(run_split("compare --sweep never-sweep --format json --db " + q(db)), 0) << output();
+  const json j = json::parse(standard_output()).at("rows").at(0);
+  EXPECT_EQ(j.at("metric"), metric);
+  EXPECT_EQ(j.at("values"), json::parse("[null, 2.0]"));
+  EXPECT_EQ(j.at("never"), json::parse("[true, false]"));
+  EXPECT_EQ(j.at("baseline_never"), false);
+  EXPECT_TRUE(j.at("percent")[0].is_null());
+
+  // Against the layout that never arrived: its column says never, and no per cent is taken against it.
+  ASSERT_EQ(run_split("compare --sweep never-sweep --baseline C1 --format json --db " + q(db)), 0) << output();
+  const json b = json::parse(standard_output()).at("rows").at(0);
+  EXPECT_TRUE(b.at("baseline").is_null());
+  EXPECT_EQ(b.at("baseline_never"), true);
+  EXPECT_EQ(b.at("values"), json::parse("[1.5, 2.0]"));
+  EXPECT_EQ(b.at("percent"), json::parse("[null, null]"));
+  ASSERT_EQ(run_split("compare --sweep never-sweep --baseline C1 --db " + q(db)), 0) << output();
+  EXPECT_NE(standard_output().find("never"), std::string::npos) << standard_output();
+  EXPECT_EQ(standard_output().find('%'), std::string::npos) << standard_output();
 }
 
 class CliCompare : public Cli {
@@ -391,7 +502,7 @@ TEST_F(CliCompare, CsvHasOneColumnPerValueAndPercent) {
       EXPECT_EQ(f[1], "1");
     }
     for (size_t k = 2; k < f.size(); ++k)
-      if (!f[k].empty()) {
+      if (!f[k].empty() && !(f[k] == "never" && f[0].find("arrival_time_s") != std::string::npos)) {
         size_t used = 0;
         (void)std::stod(f[k], &used);  // a plain number, not "12.3 (+4.0%)"
         EXPECT_EQ(used, f[k].size()) << line;

@@ -115,6 +115,49 @@ TEST_F(Service, RoundTripMatchesTheCliAndCompareGivesTheDifferences) {
   EXPECT_EQ(get("/compare?jobs=" + std::to_string(ja) + ",999").status, 404);
 }
 
+// GET /compare on an arrival that never happened: null with its never flag, no difference or per cent (before:
+// -1 and a per cent of it). A pressure probe in the water is wet at once; one high in the empty corner never.
+TEST_F(Service, CompareSaysNeverForAnArrivalThatNeverHappened) {
+  start({"--workers", "1", "--threads-per-job", "1"});
+  auto with_probe = [](const std::string& name, double x, double y) {
+    json s = tiny_scene(name, 0.02);
+    s["monitors"] = json::array({{{"type", "pressure_probe"}, {"name", "P"}, {"point", {x, y}}}});
+    return s;
+  };
+  const Reply a = post("/jobs", {{"scene", with_probe("wet", 0.1, 0.05)}});
+  const Reply b = post("/jobs", {{"scene", with_probe("dry", 0.35, 0.25)}});
+  ASSERT_EQ(a.status, 201) << a.text;
+  ASSERT_EQ(b.status, 201) << b.text;
+  const int64_t ja = a.body.at("id"), jb = b.body.at("id");
+  ASSERT_EQ(wait_status(ja, "done").value("status", ""), "done");
+  ASSERT_EQ(wait_status(jb, "done").value("status", ""), "done");
+  const std::string metric = "monitors.pressure_probe.P.arrival_time_s";
+  auto row_of = [&](const json& cmp) {
+    for (const auto& r : cmp.at("metrics"))
+      if (r.at("metric") == metric) return r;
+    ADD_FAILURE() << "no row " << metric << " in " << cmp.dump().substr(0, 400);
+    return json::object();
+  };
+  const Reply cmp = get("/compare?jobs=" + std::to_string(ja) + "," + std::to_string(jb));
+  ASSERT_EQ(cmp.status, 200) << cmp.text;
+  const json r = row_of(cmp.body);
+  EXPECT_TRUE(r.at("baseline").is_number()) << r.dump();
+  EXPECT_EQ(r.at("baseline_never"), false);
+  EXPECT_EQ(r.at("values"), json::array({nullptr}));
+  EXPECT_EQ(r.at("never"), json::array({true}));
+  EXPECT_EQ(r.at("difference"), json::array({nullptr}));
+  EXPECT_EQ(r.at("percent"), json::array({nullptr}));
+  // The other way round: the baseline never arrived; the wet probe keeps its time, with nothing against "never".
+  const Reply back = get("/compare?jobs=" + std::to_string(ja) + "," + std::to_string(jb) + "&baseline=" + std::to_string(jb));
+  ASSERT_EQ(back.status, 200) << back.text;
+  const json rb = row_of(back.body);
+  EXPECT_TRUE(rb.at("baseline").is_null());
+  EXPECT_EQ(rb.at("baseline_never"), true);
+  EXPECT_TRUE(rb.at("values")[0].is_number());
+  EXPECT_EQ(rb.at("never"), json::array({false}));
+  EXPECT_EQ(rb.at("percent"), json::array({nullptr}));
+}
+
 TEST_F(Service, IdempotencyKeyReturnsTheOriginalJobAndSweep) {
   start({"--workers", "0"});
   const json body = {{"scene", tiny_scene("idem")}};

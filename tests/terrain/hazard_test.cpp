@@ -6,10 +6,12 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include <gdal_priv.h>
 #include <ogrsf_frmts.h>
+#include <sqlite3.h>
 
 #include "runout/terrain/hazard.hpp"
 #include "runout/terrain/terrain.hpp"
@@ -203,7 +205,7 @@ TEST(HazardPolygons, PolygonAreasEqualTheRastersClassAreas) {
   const double row = c.nx * c.cell_area();
   size_t parts = 0;
   EXPECT_NEAR(area_of("inundated", 1, &parts), (ones + twos) * c.cell_area(), row);
-  EXPECT_EQ(parts, 2u);  // the L (with its hole) and the patch
+  EXPECT_EQ(parts, 2u);  // the L (its one-cell hole sieved away) and the patch
   EXPECT_NEAR(area_of("intensity", 1), ones * c.cell_area(), row);
   EXPECT_NEAR(area_of("intensity", 2), twos * c.cell_area(), row);
   OGRLayer* l = ds->GetLayerByName("intensity");
@@ -211,6 +213,66 @@ TEST(HazardPolygons, PolygonAreasEqualTheRastersClassAreas) {
   OGRSpatialReference want;
   want.SetFromUserInput("EPSG:32616");
   EXPECT_TRUE(l->GetSpatialRef() && l->GetSpatialRef()->IsSame(&want));
+}
+
+// One-cell specks go (GDALSieveFilter, kPolygonSieveCells = 2): a class-3 cell inside a class-1 block merges into
+// it, a lone class-2 cell into "no class"; a two-cell region stays. The flume DEM's CRS (ESRI WKT in its .prj)
+// is stored as EPSG:32632, not a custom srs_id 100000; each layer has its default QGIS style in layer_styles,
+// a category per class in its colour. Read back with SQLite (the GeoPackage's tables) and OGR.
+TEST(HazardPolygons, SpecksAreSievedTheCrsIsEpsgAndEachLayerIsStyled) {
+  TempDir tmp;
+  const Grid dem = load_dem((fs::path(RUNOUT_SOURCE_DIR) / "scenarios/flume/flume_dem.asc").string());
+  Grid c(12, 8, dem.x0, dem.y0, dem.dx, dem.dy, dem.crs_wkt, 0.0f);
+  for (int j = 1; j < 5; ++j)
+    for (int i = 1; i < 5; ++i) c.at(i, j) = 1.0f;  // a 4 x 4 block of class 1
+  c.at(2, 2) = 3.0f;                                // a speck of class 3 in it
+  c.at(9, 1) = 2.0f;                                // a lone cell of class 2
+  c.at(8, 6) = c.at(9, 6) = 2.0f;                   // two cells of class 2: kept
+  const std::string path = (tmp.path / "hazard.gpkg").string();
+  write_class_polygons(path, {{"intensity", &c, {"low", "medium", "high"}, {"#ffff00", "#ff9900", "#e31a1c"}}});
+  {
+    GDALAllRegister();
+    std::unique_ptr<GDALDataset> ds(GDALDataset::Open(path.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY));
+    ASSERT_TRUE(ds);
+    std::map<int, std::vector<long>> cells;  // per class, each polygon's area in cells
+    for (auto& f : *ds->GetLayerByName("intensity"))
+      cells[f->GetFieldAsInteger("class")].push_back(std::lround(f->GetGeometryRef()->toPolygon()->get_Area() / c.cell_area()));
+    EXPECT_EQ(cells[1], std::vector<long>{16}) << "the block, its speck merged in (no hole)";
+    EXPECT_EQ(cells[2], std::vector<long>{2}) << "the two-cell region only";
+    EXPECT_EQ(cells.count(3), 0u);
+  }
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
+  auto rows = [&](const std::string& sql) {
+    std::vector<std::vector<std::string>> out;
+    sqlite3_stmt* st = nullptr;
+    EXPECT_EQ(sqlite3_prepare_v2(db, sql.c_str(), -1, &st, nullptr), SQLITE_OK) << sql << ": " << sqlite3_errmsg(db);
+    while (st && sqlite3_step(st) == SQLITE_ROW) {
+      out.emplace_back();
+      for (int k = 0; k < sqlite3_column_count(st); ++k) {
+        const unsigned char* t = sqlite3_column_text(st, k);
+        out.back().push_back(t ? reinterpret_cast<const char*>(t) : "");
+      }
+    }
+    sqlite3_finalize(st);
+    return out;
+  };
+  EXPECT_EQ(rows("SELECT c.srs_id, s.organization, s.organization_coordsys_id FROM gpkg_contents c JOIN "
+                 "gpkg_spatial_ref_sys s ON s.srs_id = c.srs_id WHERE c.table_name = 'intensity'"),
+            (std::vector<std::vector<std::string>>{{"32632", "EPSG", "32632"}}));
+  const auto styles = rows("SELECT f_table_name, f_geometry_column, useAsDefault, styleQML FROM layer_styles");
+  ASSERT_EQ(styles.size(), 1u);
+  EXPECT_EQ(styles[0][0], "intensity");
+  EXPECT_EQ(styles[0][1], "geom");
+  EXPECT_EQ(styles[0][2], "1");
+  const std::string& qml = styles[0][3];
+  EXPECT_NE(qml.find("type=\"categorizedSymbol\" attr=\"class\""), std::string::npos) << qml;
+  EXPECT_NE(qml.find("<category value=\"3\" symbol=\"2\" label=\"high\""), std::string::npos) << qml;
+  EXPECT_NE(qml.find("name=\"color\" value=\"227,26,28,255\""), std::string::npos) << qml;  // #e31a1c
+  // Registered as a table of the GeoPackage (gpkg_contents), as QGIS and OGR expect.
+  EXPECT_EQ(rows("SELECT data_type FROM gpkg_contents WHERE table_name = 'layer_styles'"),
+            (std::vector<std::vector<std::string>>{{"attributes"}}));
+  sqlite3_close(db);
 }
 
 TEST(HazardGrids, DifferenceGridCoversTheUnionOfTheWindows) {
@@ -221,10 +283,11 @@ TEST(HazardGrids, DifferenceGridCoversTheUnionOfTheWindows) {
   EXPECT_EQ(d.ny, 3);
   EXPECT_DOUBLE_EQ(d.x0, 100);
   EXPECT_DOUBLE_EQ(d.y0, 21);
-  // Row 0 (y 20-21) is b only; rows 1-2 overlap where x >= 101.
-  EXPECT_FLOAT_EQ(d.at(0, 0), 0.0f);
+  // Row 0 (y 20-21) is b only; rows 1-2 overlap where x >= 101. A cell with no value in either grid (outside
+  // both, or a's nodata outside b) is nodata, not a difference of 0.
+  EXPECT_TRUE(std::isnan(d.at(0, 0)));
   EXPECT_FLOAT_EQ(d.at(1, 0), -0.25f);
-  EXPECT_FLOAT_EQ(d.at(0, 1), 0.0f);  // a's nodata counts as 0
+  EXPECT_TRUE(std::isnan(d.at(0, 1)));
   EXPECT_FLOAT_EQ(d.at(1, 1), 0.75f);
   EXPECT_FLOAT_EQ(d.at(0, 2), 1.0f);
   Grid shifted(2, 2, 100.5, 20, 1, 1);

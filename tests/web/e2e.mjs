@@ -340,19 +340,20 @@ async function main() {
     const row = table[k];
     equal(row.metric, m.metric, `row ${k}`);
     const want = [
-      ['baseline', baseline, m.baseline, 6],
-      ['value', withDam, m.values[0], 6],
-      ['difference', withDam, m.difference[0], 6],
-      ['percent', withDam, m.percent[0], 4],
+      ['baseline', baseline, m.baseline, 6, m.baseline_never],
+      ['value', withDam, m.values[0], 6, m.never[0]],
+      ['difference', withDam, m.difference[0], 6, false],
+      ['percent', withDam, m.percent[0], 4, false],
     ];
     equal(row.cells.length, want.length, `cells of ${m.metric}`);
-    want.forEach(([kind, job, v, digits], c) => {
+    want.forEach(([kind, job, v, digits, never], c) => {
       const cell = row.cells[c];
       equal(cell.kind, kind, `${m.metric} cell ${c}`);
       equal(cell.job, String(job), `${m.metric} ${kind} job`);
-      // The exact number the API gave, and the text shown is that number to the shown precision.
+      // The exact number the API gave, and the text shown is that number to the shown precision; an arrival
+      // that never happened (null with its never flag) reads "never".
       equal(cell.value, v == null ? '' : String(v), `${m.metric} ${kind} value`);
-      equal(cell.text, tableNumber(v, digits), `${m.metric} ${kind} text`);
+      equal(cell.text, never ? 'never' : tableNumber(v, digits), `${m.metric} ${kind} text`);
     });
   });
   log(`compare table: ${table.length} metrics equal the API's (${differing} differ)`);

@@ -51,6 +51,14 @@ std::optional<RasterPicture> render_run_raster(const std::filesystem::path& out_
 // The colour scales of the run's rasters (map_layers() order, those the run has), without rendering.
 std::vector<ColourScale> run_raster_scales(const std::filesystem::path& out_dir);
 
+// A sweep's difference raster OUT/rasters/diff_<name>.tif (name "max_depth" or "max_hv": the layout's raster
+// minus the baseline layout's, docs/terrain.md): a diverging scale symmetric about 0 to the largest |d|, blue
+// where the layout lowers the value, white where unchanged, red where it raises it. Its .qml uses the same.
+ColourScale difference_colour_scale(const std::string& name, const std::string& unit, double max_abs);
+// The run's diff_<name>.tif coloured by difference_colour_scale (nodata transparent, 0 white); nullopt when
+// the run has none (a baseline, a service run, a single run).
+std::optional<RasterPicture> render_difference_raster(const std::filesystem::path& out_dir, const std::string& name);
+
 // The grey hillshade of the run's terrain (OUT/rasters/hillshade.png, written with the rasters), if any.
 std::filesystem::path run_hillshade(const std::filesystem::path& out_dir);
 

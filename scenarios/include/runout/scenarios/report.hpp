@@ -38,6 +38,7 @@ StudyReportInput sweep_report_input(const RunStore& store, const std::string& sw
                                     const std::filesystem::path& runs_root);
 
 // sweep_report_input, then the HTML written to out_path (through a temporary file, renamed when complete).
+// Throws std::invalid_argument naming --runs when runs_root/<sweep> is not a folder (a mistyped path).
 void write_study_report(const RunStore& store, const std::string& sweep, const std::string& baseline,
                         const std::filesystem::path& runs_root, const std::filesystem::path& out_path);
 

@@ -84,7 +84,9 @@ std::map<std::string, double> flatten_metrics(const std::string& metrics_json);
 // Runs side by side against a baseline run. `runs` labels the columns: the variant name ("C3"), "#<id>"
 // when it is empty, "C3#<id>" when two runs share it. One row per metric name present in any of the runs
 // or the baseline, sorted by name: the baseline's value, each run's value and its difference in per cent,
-// (v - base) / |base| * 100, absent when either value is missing or base is 0.
+// (v - base) / |base| * 100, absent when either value is missing or base is 0. An arrival that never happened
+// (means_never) is no number: its value is absent and its `never` flag set, and no per cent is taken against it
+// or of it (docs/store.md, "Never arrived").
 // Throws std::runtime_error when an id is not in the store.
 struct Comparison {
   std::string baseline;           // label of the baseline run
@@ -92,12 +94,18 @@ struct Comparison {
   std::vector<std::string> runs;  // column labels, one per run id
   struct Row {
     std::string metric;
-    std::optional<double> baseline;
-    std::vector<std::optional<double>> values;   // one per run
+    std::optional<double> baseline;              // absent: missing, or never (baseline_never)
+    bool baseline_never = false;                 // the baseline's arrival never happened
+    std::vector<std::optional<double>> values;   // one per run; absent: missing, or never
+    std::vector<bool> never;                     // one per run: its arrival never happened
     std::vector<std::optional<double>> percent;  // one per run
   };
   std::vector<Row> rows;
 };
+
+// Whether a stored value says "never" rather than a quantity: an arrival time (a name ending in
+// arrival_time_s: sections' t_0, pressure probes, protected zones) of -1, as the monitors write it.
+bool means_never(const std::string& metric, double value);
 Comparison compare_runs(const RunStore& store, const std::vector<int64_t>& run_ids, int64_t baseline_id);
 
 }  // namespace runout

@@ -107,16 +107,23 @@ void write_class_geotiff(const std::string& path, const Grid& classes, const Ras
 
 // Polygons of a class grid (terrain/src/polygonize.cpp): one layer per entry, a feature per connected
 // region of equal nonzero class (GDALPolygonize, 4-connected, edges on the cell edges), with fields "class",
-// "label" (labels[class - 1]) and "area_m2". GeoPackage in the grid's CRS, written atomically.
+// "label" (labels[class - 1]) and "area_m2", after GDALSieveFilter merged every region smaller than
+// kPolygonSieveCells cells into its largest neighbour (a one-cell speck of a class, or a one-cell hole). A
+// GeoPackage in the grid's CRS, stored under its EPSG code where GDAL identifies one, with each layer's QGIS
+// style (a fill colour per class, colours[class - 1] "#rrggbb", when given) in the layer_styles table QGIS reads
+// as the layer's default style; written atomically.
+constexpr int kPolygonSieveCells = 2;
 struct ClassLayer {
   std::string name;
   const Grid* classes = nullptr;
   std::vector<std::string> labels;
+  std::vector<std::string> colours;  // one per label; empty: no style
 };
 void write_class_polygons(const std::string& path, const std::vector<ClassLayer>& layers);
 
 // a - b on the union of their extents (both on the same cell lattice: same cell size, edges a whole number
-// of cells apart, else std::invalid_argument); a cell outside one grid or NaN in it counts as 0 there.
+// of cells apart, else std::invalid_argument); a cell outside one grid or NaN in it counts as 0 there, and is
+// nodata (NaN) where neither grid has a value (dry in both).
 Grid difference_grid(const Grid& a, const Grid& b);
 
 // A QGIS layer style (.qml) for a single-band raster: a colour ramp from the stops' values (continuous), or
@@ -127,6 +134,9 @@ struct StyleStop {
   std::string label;
 };
 void write_qml(const std::string& path, const std::vector<StyleStop>& stops, bool classes);
+// The QGIS style (QML text) of a polygon layer: a categorised fill on the integer field `field`, one category
+// per stop (its value, colour and label), at 80 % opacity with a darker outline.
+std::string vector_class_qml(const std::string& field, const std::vector<StyleStop>& categories);
 
 // A picture for people: the hillshaded terrain in grey with `depth` (same placement as `terrain`) drawn
 // over it in a blue colour ramp from `min_depth` to the grid's maximum; cells below min_depth stay grey.

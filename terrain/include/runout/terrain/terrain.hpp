@@ -116,6 +116,16 @@ struct StructureInfo {
   std::array<double, 2> flow_normal{0.0, 0.0};
 };
 
+// The structures as built, added as layers to an existing GeoPackage (the run's hazard.gpkg; terrain/src/
+// polygonize.cpp), in the CRS `crs_wkt` (under its EPSG code where identified), so a map shows what was
+// simulated: `check_dams` (the axes as lines) and `structure_areas` (deposition areas and retention basins as
+// polygons), each feature with its name, type, crest elevation, built wall height, storage capacity, cut and
+// fill volumes, and the flow it held at the end (retained[k], upstream[k] for a check dam; NaN: not known). A
+// layer with no structure is not written.
+void write_structure_layers(const std::string& gpkg_path, const std::vector<StructureInfo>& structures,
+                            const std::string& crs_wkt, const std::vector<double>& retained,
+                            const std::vector<double>& upstream);
+
 // A built terrain scene. All particle positions are local (see the header comment).
 struct TerrainModel {
   Grid dem;       // working DEM, projected, as loaded
