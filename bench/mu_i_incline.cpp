@@ -1,12 +1,13 @@
 // mu(I) on an incline: a uniform granular layer against Bagnold's velocity profile, as a measurement (not a test:
 // the layer had not reached a steady state matching Bagnold when this was written, docs/validation.md "mu(I)").
 //
-//   build/bench/bench_mu_i_incline [--t-end 5] [--trace]
+//   build/bench/bench_mu_i_incline [--t-end 5] [--trace] [--viscosity implicit|explicit]
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 
 #include <CLI/CLI.hpp>
 
@@ -36,7 +37,7 @@ MaterialParams beads(double regularisation) {
 //   u(z) = (2/3) (I_t / d) sqrt(phi g cos theta) (H^1.5 - (H - z)^1.5),  I_t = I0 (tan theta - mu_s) / (mu_2 - tan theta)
 // (GDR MiDi 2004; Jop et al. 2006): the stress ratio is tan theta at every depth, so I = I_t everywhere.
 // 2D, periodic along the slope (gravity tilted), a no-slip DBC bed, dp = 1 mm, H = 20 dp.
-void run(double t_end, bool trace) {
+void run(double t_end, bool trace, bool implicit) {
   const double theta = 25.0 * kPi / 180.0, g = 9.81, dp = 1e-3, H = 20 * dp, period = 12 * dp;
   SceneSetup<2> s;
   s.config.dp = dp;
@@ -45,6 +46,8 @@ void run(double t_end, bool trace) {
   s.config.gravity = {g * std::sin(theta), -g * std::cos(theta), 0};
   s.config.boundary_density = kRho;
   s.config.periodic = {true, false, false};
+  // The product's default for a yield-stress material (scenes: numerics.viscosity) is the implicit step.
+  s.config.viscous_step = implicit ? ViscousStep::implicit : ViscousStep::explicit_capped;
   s.config.domain_min = {0.0, -10 * dp, 0};
   s.config.domain_max = {period, 1.0, 0};
   s.materials.push_back(beads(100.0));
@@ -114,9 +117,12 @@ int main(int argc, char** argv) {
   CLI::App app{"mu(I) layer on a 25 degree incline against Bagnold's profile. Example: bench_mu_i_incline --t-end 5"};
   double t_end = 5.0;
   bool trace = false;
+  std::string viscosity = "implicit";
+  app.add_option("--viscosity", viscosity, "the viscous step (a scene's default for mu(I): implicit)")
+      ->check(CLI::IsMember({"explicit", "implicit"}));
   app.add_option("--t-end", t_end, "simulated time [s]")->check(CLI::Range(0.3, 100.0));
   app.add_flag("--trace", trace, "print the mean speed every 5000 steps");
   CLI11_PARSE(app, argc, argv);
-  run(t_end, trace);
+  run(t_end, trace, viscosity == "implicit");
   return 0;
 }
