@@ -5,7 +5,10 @@
 // under the yield stress, |z - z_c| < y0 = tau_y / (rho g_x), and Bingham-sheared outside:
 //     u(z) = rho g_x / (2 mu) [ (B - y0)^2 - (|z - z_c| - y0)^2 ]   for y0 <= |z - z_c| <= B,
 //     u(z) = rho g_x (B - y0)^2 / (2 mu)                            in the plug,
-// with B the half-width between the two no-slip walls.
+// with B the half-width between the two no-slip walls. The scene's material is the hbp law with n = 1 and the
+// Papanastasiou regularisation the studies use (m = 100 s): it departs from Bingham only where m |gamma_dot| is
+// of order 1, within mu / (m rho g_x) = 0.01 mm of the yield surface. (The unregularised bingham law with no cap
+// misses this profile by 30 %: docs/validation.md, section 3.)
 //
 // Where the no-slip wall is: the DBC boundary particles carry v = 0 at their centres and the solver's viscous
 // operator sees zero velocity at every boundary particle, so the analytic wall is put at the centres of the
@@ -13,13 +16,15 @@
 // of the fluid layer between the faces. (At the face itself, B = b, the analytic plug speed is 10 % lower at
 // this resolution.) The test also prints the half-width that fits the simulated profile best.
 //
-// Checked (one run, three tests): (1) the run reached steady state (the centre speed changed by < 0.5 % of the plug speed over the
-// last 20 % of the run); (2) every layer's mean velocity (rows of particles, time-averaged over the last
-// 0.1 s) is within 5 % of the analytic plug speed of the Bingham profile; (3) the plug half-width, measured as
-// the boundary between layers whose effective viscosity sits at the cap (unyielded) and layers below it
-// (yielded), is y0 within one particle spacing (rows are dp apart and the SPH shear rate is smoothed over the
-// kernel support). The viscosity cap (20 mu) regularises the plug: it creeps by (mu / mu_cap) (y0/(B-y0))^2,
-// about 1.1 % of the plug speed, inside the 5 %.
+// The scene runs the numerics a yield-stress material gets by default (the implicit viscous step, no cap), so
+// the plug is not marked by a capped viscosity: its half-width is read off the profile, as the y0 of the Bingham
+// profile (with the wall at B) that fits the time-averaged rows best by least squares.
+//
+// Checked (one run): (1) the run reached steady state (the centre speed changed by < 0.5 % of the plug speed
+// over the last 20 % of the run); (2) every layer's mean velocity (rows of particles, time-averaged over the last
+// 0.1 s) is within 5 % of the analytic plug speed of the Bingham profile; (3) the fitted plug half-width is y0
+// within the error the 5 % implies: the plug speed rho g (B - y0)^2 / (2 mu) moves by 2 dy0 / (B - y0) per unit
+// of y0, so a plug speed within 5 % places the yield surface within 0.025 (B - y0) (0.26 dp here).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -40,7 +45,7 @@ namespace {
 
 struct Result {
   bool ran = false;
-  double U = 0, worst = 0, u_centre_end = 0, u_centre_at_80 = 0, y0 = 0, y0_sim = 0, dp = 0;
+  double U = 0, worst = 0, u_centre_end = 0, u_centre_at_80 = 0, y0 = 0, y0_sim = 0, dp = 0, B = 0;
 };
 
 Result simulate() {
@@ -57,8 +62,8 @@ Result simulate() {
   if (!(gx > 0)) return res;
   if (setup.config.gravity[1] != 0.0) return res;
   if (!setup.config.periodic[0]) return res;
-  const real cap = setup.config.max_viscosity;
-  if (!(cap > 0)) return res;  // the scene must set an explicit numerics.viscosity_cap
+  if (setup.config.viscous_step != ViscousStep::implicit || setup.config.max_viscosity > 0)
+    return res;  // the test checks the default numerics: the implicit step with no cap
 
   // Wall faces: half a spacing beyond the outermost fluid rows.
   real zmin = 1e300, zmax = -1e300;
@@ -111,21 +116,8 @@ Result simulate() {
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double u_centre_end = centre_speed();
 
-  // Yielded or not, from the effective viscosity at the final state.
-  solver.evaluate_rates();
-  const auto& f = solver.fluid();
-  const auto& mu_eff = solver.fluid_effective_viscosity();
-  std::vector<int> unyielded(nl, 0), count(nl, 0);
-  for (size_t i = 0; i < f.size(); ++i) {
-    const int k = static_cast<int>(std::floor((f.pos[1][i] - z_lo) / dp));
-    if (k < 0 || k >= nl) continue;
-    ++count[k];
-    if (mu_eff[i] >= cap * (1 - 1e-9)) ++unyielded[k];
-  }
-
-  std::printf("  layer z [mm]  u_sim [m/s]  u_bingham [m/s]  dev/U_plug   unyielded\n");
+  std::printf("  layer z [mm]  u_sim [m/s]  u_bingham [m/s]  dev/U_plug\n");
   double worst = 0;
-  real y_in = 0, y_out = b;  // outermost unyielded and innermost yielded layer distance from the centre
   std::vector<double> zs, us;
   for (int k = 0; k < nl; ++k) {
     if (!(n_sum[k] > 0)) return res;  // an empty layer: the run is not what the test expects
@@ -133,16 +125,27 @@ Result simulate() {
     const double u = u_sum[k] / n_sum[k];
     const double ua = analytic(z, B);
     worst = std::max(worst, std::abs(u - ua) / U);
-    const bool plug = 2 * unyielded[k] > count[k];
-    const real y = std::abs(z - zc);
-    if (plug) y_in = std::max(y_in, y);
-    else y_out = std::min(y_out, y);
     zs.push_back(z);
     us.push_back(u);
-    std::printf("  %11.1f  %11.4f  %15.4f  %+9.2f %%   %d/%d\n", 1e3 * z, u, ua, 100 * (u - ua) / U, unyielded[k],
-                count[k]);
+    std::printf("  %11.1f  %11.4f  %15.4f  %+9.2f %%\n", 1e3 * z, u, ua, 100 * (u - ua) / U);
   }
-  const real y0_sim = 0.5 * (y_in + y_out);
+  // Plug half-width: the Bingham profile's y0 (wall at B) that fits the rows best, in 0.01 dp steps.
+  auto profile = [&](real z, real plug, real half_width) {
+    const real y = std::abs(z - zc);
+    if (y >= half_width) return 0.0;
+    const real g = rho * gx / (2 * mu);
+    return y <= plug ? g * (half_width - plug) * (half_width - plug)
+                     : g * ((half_width - plug) * (half_width - plug) - (y - plug) * (y - plug));
+  };
+  double y0_sim = 0, y0_err = 1e300;
+  for (double w = 0; w < B; w += 0.01 * dp) {
+    double e = 0;
+    for (size_t q = 0; q < zs.size(); ++q) e += std::pow(us[q] - profile(zs[q], w, B), 2);
+    if (e < y0_err) {
+      y0_err = e;
+      y0_sim = w;
+    }
+  }
   // Effective wall position: the half-width that fits the profile best (least squares, 0.01 dp steps).
   double best_w = b, best_err = 1e300;
   for (double w = b - dp; w <= b + 2 * dp + 1e-12; w += 0.01 * dp) {
@@ -155,10 +158,10 @@ Result simulate() {
   }
   std::printf(
       "  poiseuille: U_plug %.4f m/s, worst |u - u_bingham| %.2f %% of U_plug, centre speed %.4f (at 80 %% of the "
-      "run %.4f), plug half-width %.2f mm (unyielded to %.2f, yielded from %.2f; analytic %.2f), best-fit wall "
+      "run %.4f), plug half-width %.2f mm (fitted; analytic %.2f), best-fit wall "
       "half-width %.3f mm (faces: %.3f mm, first boundary layer: %.3f mm; i.e. the wall sits %.2f dp %s the face), "
       "%ld steps, %.1f s wall\n",
-      U, 100 * worst, u_centre_end, u_centre_at_80, 1e3 * y0_sim, 1e3 * y_in, 1e3 * y_out, 1e3 * y0, 1e3 * best_w,
+      U, 100 * worst, u_centre_end, u_centre_at_80, 1e3 * y0_sim, 1e3 * y0, 1e3 * best_w,
       1e3 * b, 1e3 * B, std::abs(best_w - b) / dp, best_w >= b ? "beyond" : "inside", solver.steps(), wall);
 
   res.ran = true;
@@ -169,6 +172,7 @@ Result simulate() {
   res.y0 = y0;
   res.y0_sim = y0_sim;
   res.dp = dp;
+  res.B = B;
   return res;
 }
 
@@ -177,14 +181,11 @@ Result simulate() {
 // One run, several checks (ctest runs every TEST in its own process, so splitting them would repeat the run).
 // The former viscous operator (divergence of tau = 2 mu_eff D' built from the SPH velocity gradient) let
 // alternate particle rows slide (an odd-even mode) and failed here by 15 %; the Morris et al. (1997) operator
-// with the per-particle mu_eff passes (docs/validation.md, section 3). The plug-width check passes at its edge:
-// the SPH shear rate is smoothed over the kernel support and the capped plug's own creep rate at 9 mm from the
-// centre is 86 % of the rate at which mu_eff leaves the cap, so the 9 mm rows read as yielded (8 mm, one
-// spacing inside the analytic 10 mm).
+// with the per-particle mu_eff passes (docs/validation.md, section 3).
 TEST(PoiseuilleValidation, BinghamSteadyProfileAndPlugWidth) {
   const Result r = simulate();
   ASSERT_TRUE(r.ran) << "the scene is not the periodic, body-force driven Bingham channel this test expects";
   EXPECT_LT(std::abs(r.u_centre_end - r.u_centre_at_80), 0.005 * r.U) << "not steady yet";
-  EXPECT_LE(std::abs(r.y0_sim - r.y0), r.dp + 1e-12) << "plug half-width";
+  EXPECT_LE(std::abs(r.y0_sim - r.y0), 0.025 * (r.B - r.y0)) << "plug half-width, fitted to the profile";
   EXPECT_LT(r.worst, 0.05) << "worst layer deviation from the Bingham profile, as a fraction of the plug speed";
 }
