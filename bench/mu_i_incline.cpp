@@ -1,7 +1,8 @@
 // mu(I) on an incline: a uniform granular layer against Bagnold's velocity profile, as a measurement (not a test:
 // the layer had not reached a steady state matching Bagnold when this was written, docs/validation.md "mu(I)").
 //
-//   build/bench/bench_mu_i_incline [--t-end 5] [--trace] [--viscosity implicit|explicit]
+//   build/bench/bench_mu_i_incline [--t-end 5] [--trace] [--viscosity implicit|explicit] [--walls scene|bare]
+//                                  [--wall-pressure dbc|extrapolated] [--floor on|off]
 
 #include <algorithm>
 #include <cmath>
@@ -13,6 +14,7 @@
 
 #include "runout/engine/rheology.hpp"
 #include "runout/engine/solver.hpp"
+#include "runout/scenarios/scene.hpp"
 
 using namespace runout;
 
@@ -37,7 +39,9 @@ MaterialParams beads(double regularisation) {
 //   u(z) = (2/3) (I_t / d) sqrt(phi g cos theta) (H^1.5 - (H - z)^1.5),  I_t = I0 (tan theta - mu_s) / (mu_2 - tan theta)
 // (GDR MiDi 2004; Jop et al. 2006): the stress ratio is tan theta at every depth, so I = I_t everywhere.
 // 2D, periodic along the slope (gravity tilted), a no-slip DBC bed, dp = 1 mm, H = 20 dp.
-void run(double t_end, bool trace, bool implicit) {
+// `extrapolated` and `floor`: the extrapolated wall pressure and the density floor a scene with a granular material
+// gets (GranularDefaults); DBC walls and no floor, as this layer was first run, otherwise.
+void run(double t_end, bool trace, bool implicit, bool extrapolated, bool floor) {
   const double theta = 25.0 * kPi / 180.0, g = 9.81, dp = 1e-3, H = 20 * dp, period = 12 * dp;
   SceneSetup<2> s;
   s.config.dp = dp;
@@ -48,6 +52,11 @@ void run(double t_end, bool trace, bool implicit) {
   s.config.periodic = {true, false, false};
   // The product's default for a yield-stress material (scenes: numerics.viscosity) is the implicit step.
   s.config.viscous_step = implicit ? ViscousStep::implicit : ViscousStep::explicit_capped;
+  if (extrapolated) s.config.boundary_pressure = boundary_pressure_from_name(GranularDefaults::boundary_pressure);
+  if (floor) {
+    s.config.density_floor = GranularDefaults::density_floor;
+    s.config.max_dilatancy = GranularDefaults::max_dilatancy;
+  }
   s.config.domain_min = {0.0, -10 * dp, 0};
   s.config.domain_max = {period, 1.0, 0};
   s.materials.push_back(beads(100.0));
@@ -66,13 +75,22 @@ void run(double t_end, bool trace, bool implicit) {
   const double t_avg = t_end - 0.2;
   std::vector<double> u_sum(20, 0.0);
   std::vector<long> u_n(20, 0);
+  // The pressure the law sees, per row over the averaging window: its mean and spread against lithostatic.
+  std::vector<double> p_sum(20, 0.0), p_sq(20, 0.0), p_pos(20, 0.0);
   double mean_at_avg_start = 0;
   while (solver.time() < t_end) {
     solver.step();
     if (trace && solver.steps() % 5000 == 0) {
-      double m = 0;
-      for (size_t i = 0; i < solver.fluid().size(); ++i) m += solver.fluid().vel[0][i] / solver.fluid().size();
-      std::printf("t %.3f mean %.4f dt %.2e\n", solver.time(), m, solver.last_step().dt);
+      const auto& f = solver.fluid();
+      double m = 0, rho = 0, top = 0;
+      for (size_t i = 0; i < f.size(); ++i) {
+        m += f.vel[0][i] / f.size();
+        rho += f.rho[i] / (kRho * f.size());
+        top = std::max(top, static_cast<double>(f.pos[1][i]));
+      }
+      // The layer's thickness (top row's centre + dp / 2) and mean density tell a dilating or compacting layer.
+      std::printf("t %.3f mean %.4f dt %.2e thickness %.2f dp mean rho/rho0 %.4f\n", solver.time(), m,
+                  solver.last_step().dt, (top + 0.5 * dp) / dp, rho);
     }
     if (solver.time() < t_avg) continue;
     const auto& f = solver.fluid();
@@ -81,6 +99,10 @@ void run(double t_end, bool trace, bool implicit) {
       const int bin = std::clamp(static_cast<int>(f.pos[1][i] / dp), 0, 19);
       u_sum[bin] += f.vel[0][i];
       ++u_n[bin];
+      const double p = solver.fluid_pressure()[i];
+      p_sum[bin] += p;
+      p_sq[bin] += p * p;
+      p_pos[bin] += std::max(p, 0.0);
       mean += f.vel[0][i] / f.size();
     }
     if (mean_at_avg_start == 0) mean_at_avg_start = mean;
@@ -108,6 +130,14 @@ void run(double t_end, bool trace, bool implicit) {
     shape_sq += d * d;
   }
   const double shape_rms = std::sqrt(shape_sq / bins);
+  std::printf("row  u/Bagnold  <P>/lithostatic  <max(P,0)>/lithostatic  rms(P - <P>)/lithostatic\n");
+  for (int k : {0, 2, 5, 10, 15, 18}) {
+    if (u_n[k] == 0) continue;
+    const double z = (k + 0.5) * dp, n = static_cast<double>(u_n[k]);
+    const double litho = kRho * g * std::cos(theta) * (H - z), pm = p_sum[k] / n;
+    std::printf("%3d  %8.3f  %14.3f  %21.3f  %24.3f\n", k, u_sum[k] / n / bagnold(z), pm / litho, p_pos[k] / n / litho,
+                std::sqrt(std::max(p_sq[k] / n - pm * pm, 0.0)) / litho);
+  }
   std::printf("Bagnold: mean u SPH %.4f m/s, analytic %.4f m/s (%.1f %%); surface %.3f / %.3f m/s; shape rms %.3f\n",
               mean_sph, mean_bagnold, 100 * (mean_sph / mean_bagnold - 1), sph_top, u_top, shape_rms);
   std::printf("mean speed over the last 0.2 s changed by %.2f %% from its start\n", 100 * (mean_sph / mean_at_avg_start - 1));
@@ -117,12 +147,19 @@ int main(int argc, char** argv) {
   CLI::App app{"mu(I) layer on a 25 degree incline against Bagnold's profile. Example: bench_mu_i_incline --t-end 5"};
   double t_end = 5.0;
   bool trace = false;
-  std::string viscosity = "implicit";
+  std::string viscosity = "implicit", walls = "scene", wall_pressure, floor;
   app.add_option("--viscosity", viscosity, "the viscous step (a scene's default for mu(I): implicit)")
       ->check(CLI::IsMember({"explicit", "implicit"}));
+  app.add_option("--walls", walls, "scene: the wall pressure and density floor a scene with mu(I) gets; bare: DBC, no floor")
+      ->check(CLI::IsMember({"scene", "bare"}));
+  app.add_option("--wall-pressure", wall_pressure, "overrides --walls for the wall pressure")
+      ->check(CLI::IsMember({"dbc", "extrapolated"}));
+  app.add_option("--floor", floor, "overrides --walls for the density floor")->check(CLI::IsMember({"on", "off"}));
   app.add_option("--t-end", t_end, "simulated time [s]")->check(CLI::Range(0.3, 100.0));
   app.add_flag("--trace", trace, "print the mean speed every 5000 steps");
   CLI11_PARSE(app, argc, argv);
-  run(t_end, trace, viscosity == "implicit");
+  const bool extrapolated = wall_pressure.empty() ? walls == "scene" : wall_pressure == "extrapolated";
+  const bool with_floor = floor.empty() ? walls == "scene" : floor == "on";
+  run(t_end, trace, viscosity == "implicit", extrapolated, with_floor);
   return 0;
 }
