@@ -2,7 +2,7 @@
 // the layer had not reached a steady state matching Bagnold when this was written, docs/validation.md "mu(I)").
 //
 //   build/bench/bench_mu_i_incline [--t-end 5] [--trace] [--viscosity implicit|explicit] [--walls scene|bare]
-//                                  [--wall-pressure dbc|extrapolated] [--floor on|off]
+//                                  [--wall-pressure dbc|extrapolated] [--floor on|off] [--slope 25]
 
 #include <algorithm>
 #include <cmath>
@@ -41,8 +41,8 @@ MaterialParams beads(double regularisation) {
 // 2D, periodic along the slope (gravity tilted), a no-slip DBC bed, dp = 1 mm, H = 20 dp.
 // `extrapolated` and `floor`: the extrapolated wall pressure and the density floor a scene with a granular material
 // gets (GranularDefaults); DBC walls and no floor, as this layer was first run, otherwise.
-void run(double t_end, bool trace, bool implicit, bool extrapolated, bool floor) {
-  const double theta = 25.0 * kPi / 180.0, g = 9.81, dp = 1e-3, H = 20 * dp, period = 12 * dp;
+void run(double t_end, bool trace, bool implicit, bool extrapolated, bool floor, double slope_deg) {
+  const double theta = slope_deg * kPi / 180.0, g = 9.81, dp = 1e-3, H = 20 * dp, period = 12 * dp;
   SceneSetup<2> s;
   s.config.dp = dp;
   s.config.smoothing_length = 1.5 * dp;
@@ -148,6 +148,7 @@ int main(int argc, char** argv) {
   double t_end = 5.0;
   bool trace = false;
   std::string viscosity = "implicit", walls = "scene", wall_pressure, floor;
+  double slope_deg = 25.0;
   app.add_option("--viscosity", viscosity, "the viscous step (a scene's default for mu(I): implicit)")
       ->check(CLI::IsMember({"explicit", "implicit"}));
   app.add_option("--walls", walls, "scene: the wall pressure and density floor a scene with mu(I) gets; bare: DBC, no floor")
@@ -155,11 +156,14 @@ int main(int argc, char** argv) {
   app.add_option("--wall-pressure", wall_pressure, "overrides --walls for the wall pressure")
       ->check(CLI::IsMember({"dbc", "extrapolated"}));
   app.add_option("--floor", floor, "overrides --walls for the density floor")->check(CLI::IsMember({"on", "off"}));
+  app.add_option("--slope", slope_deg, "incline [degrees]; below atan(mu_s) = 20.8 the layer rests (a check of the "
+                                       "rows' pressure against lithostatic, no Bagnold profile)")
+      ->check(CLI::Range(0.0, 30.0));
   app.add_option("--t-end", t_end, "simulated time [s]")->check(CLI::Range(0.3, 100.0));
   app.add_flag("--trace", trace, "print the mean speed every 5000 steps");
   CLI11_PARSE(app, argc, argv);
   const bool extrapolated = wall_pressure.empty() ? walls == "scene" : wall_pressure == "extrapolated";
   const bool with_floor = floor.empty() ? walls == "scene" : floor == "on";
-  run(t_end, trace, viscosity == "implicit", extrapolated, with_floor);
+  run(t_end, trace, viscosity == "implicit", extrapolated, with_floor, slope_deg);
   return 0;
 }
