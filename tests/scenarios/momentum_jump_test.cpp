@@ -295,9 +295,13 @@ TEST(MomentumJump, TheScenesAreAsDescribed) {
     ASSERT_GE(d.size(), 4u);
     for (const auto& m : s["monitors"]) {
       const std::string name = m["name"].get<std::string>();
-      if (name[0] == 'd') EXPECT_NEAR(m["point"][0].get<double>(), wall - std::stod(name.substr(1)) * kH0, 1e-9);
-      if (name == "approach") EXPECT_NEAR(m["point"][0].get<double>(), 2 * kH0, 1e-12);
-      if (name == "behind_jump") EXPECT_NEAR(m["point"][0].get<double>(), wall - 1.5 * kH0, 1e-9);
+      double expected = -1;  // where the gauge belongs [m]
+      if (name[0] == 'd') expected = wall - std::stod(name.substr(1)) * kH0;
+      if (name == "approach") expected = 2 * kH0;
+      if (name == "behind_jump") expected = wall - 1.5 * kH0;
+      if (expected >= 0) {
+        EXPECT_NEAR(m["point"][0].get<double>(), expected, 1e-9) << name;
+      }
     }
     EXPECT_GT(wall - d.back() * kH0, 2 * kH0);
   }
