@@ -270,12 +270,14 @@ struct Theory {
 };
 
 Theory water_theory() {
+  const json s = read_json(kDir / "momentum_jump_water_2d.json");
+  const double u0 = s["inlets"][0]["speed"].get<double>(), rho = s["materials"][0]["density"].get<double>();
   Theory th;
-  th.fr = 1.4 / std::sqrt(9.81 * kH0);
+  th.fr = u0 / std::sqrt(9.81 * kH0);
   th.r = jump_ratio(th.fr, 1.0);
   th.H = th.r * kH0;
-  th.c = 1.4 / (th.r - 1);
-  th.F = 0.5 * 1000 * 9.81 * th.H * th.H;
+  th.c = u0 / (th.r - 1);
+  th.F = 0.5 * rho * 9.81 * th.H * th.H;
   std::printf("  theory (Fr %.3f, kappa 1): H %.4f m, c %.4f m/s, F %.2f N/m\n", th.fr, th.H, th.c, th.F);
   return th;
 }
@@ -323,7 +325,7 @@ TEST(MomentumJump, WaterJumpHeightSpeedAndWallForce) {
     ASSERT_TRUE(r.formed()) << "the jump did not reach the last bore gauge";
     EXPECT_NEAR(r.H, th.H, 0.05 * th.H + r.dp) << "jump height";
     EXPECT_NEAR(r.c, th.c, (0.05 + (0.05 * th.H + r.dp) / (th.H - kH0)) * th.c) << "jump speed";
-    const double kappa = 2 * r.F / (1000 * 9.81 * r.H * r.H);
+    const double kappa = 2 * r.F / (r.rho0 * 9.81 * r.H * r.H);
     EXPECT_NEAR(kappa, 1.0, 0.05 + 2 * r.dp / r.H) << "wall force against rho g H^2 / 2";
     std::printf("    against theory: H %+.1f %%, c %+.1f %%, F %+.1f %% of rho g H_th^2 / 2\n", 100 * (r.H / th.H - 1),
                 100 * (r.c / th.c - 1), 100 * (r.F / th.F - 1));
