@@ -38,7 +38,7 @@
 // period ~2 l / sqrt(g H), l the jump's distance from the wall), the jump decelerated through the gauges and
 // the force over the window was 0.84-0.85 of the hydrostatic one at h0/dp 6 and 8; at 10 the window (1.11-1.42 s)
 // caught the runup's splash (H +12 %, c +28 %). The issue asks for the jump after the impact's transient, so
-// the channel was made 32 h0 long and the window moved to 10-26 h0 (over a sloshing period) before any run of it;
+// the channel was made 32 h0 long and the window moved to 10-26 h0 (over a sloshing period) before a run of it was read;
 // the tolerances did not change.
 //
 // Measured (declared before the first run): the jump's arrival at a bore gauge is the first sample deeper than
