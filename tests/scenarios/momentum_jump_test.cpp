@@ -19,35 +19,29 @@
 // = rho g_n H^2 / 2 for kappa = 1). Basal friction and gravity along the bed inside the jump are left out.
 //
 // Scenes (scenarios/validation/momentum_jump_*_2d.json), both run through parse_scene / run_scene so their numerics
-// are the defaults a user gets: h0 = 0.05 m at Froude 2 through a velocity inlet onto a 0.4 m wall.
-//  * water on a level bed, the water scenes' numerics (artificial viscosity 0.02, Fourtakas 0.1), the wall
-//    32 h0 downstream, bore gauges 10, 14, 18, 22, 26 h0 from it;
+// are the defaults a user gets: h0 = 0.05 m at Froude 2 through a velocity inlet onto a 0.4 m wall 20 h0
+// downstream, bore gauges 4, 7, 10, 13 h0 from it.
+//  * water on a level bed, the water scenes' numerics (artificial viscosity 0.02, Fourtakas 0.1);
 //  * the studies' granular material (scenarios/flume/flume.json: friction-HBP, phi 28 deg, mu 1 Pa s) with the
 //    granular defaults (extrapolated walls, density floor at 10 % dilatancy, implicit viscous step), in the bed
 //    frame of a slope at atan(sin phi) = 25.15 deg (gravity tilted): on a level bed the engine's basal friction
 //    sin(phi) would stop the inflow within ~4 h0, and on this slope it balances gravity along the bed, so the
-//    stream slides on and the jump's balance above holds without the two terms it leaves out. The wall 20 h0
-//    downstream, bore gauges 4, 7, 10, 13 h0 from it.
-// h0/dp = 6 and 8 in CI (RUNOUT_MOMENTUM_JUMP_SPACINGS="10,12" runs others, as docs/validation.md section 9 did).
-// 8, 12, 16 were declared first; a trial run at 8 cost 36 s (water, 20 h0 channel) and 112 s (granular, implicit
-// step) on one thread, so the ladder was cut to what fits the executable's CI budget of ~4 minutes. The studies
-// run their flume at dp 0.01-0.05 m on flows 0.05-0.1 m deep, h0/dp 1-10: these spacings are at or above theirs.
-//
-// History (docs/validation.md section 9). The water scene first had the granular one's 20 h0 channel and window
-// (7 to 13 h0): there the water between the wall and the jump was still sloshing from the impact (a seiche of
-// period ~2 l / sqrt(g H), l the jump's distance from the wall), the jump decelerated through the gauges and
-// the force over the window was 0.84-0.85 of the hydrostatic one at h0/dp 6 and 8; at 10 the window (1.11-1.42 s)
-// caught the runup's splash (H +12 %, c +28 %). The issue asks for the jump after the impact's transient, so
-// the channel was made 32 h0 long and the window moved to 10-26 h0 (over a sloshing period) before a run of it was read;
-// the tolerances did not change.
+//    stream slides on and the jump's balance above holds without the two terms it leaves out.
+// h0/dp = 6 and 8 in CI (RUNOUT_MOMENTUM_JUMP_SPACINGS="10,12" runs others). 8, 12, 16 were declared first; a
+// trial run at 8 cost 36 s (water) and 112 s (granular, implicit step) on one thread, so the ladder was cut to
+// what fits the executable's CI budget of ~4 minutes: water 6/8/10 (056d371), granular 6/8. At h0/dp 10 the
+// water's H and c miss (the window catches the runup's splash), so 10 is asserted in the water known failure
+// below, which asserts the declared aim in full; the passing water test asserts H and c at 6 and 8, where they
+// hold. The studies run their flume at dp 0.01-0.05 m on flows 0.05-0.1 m deep, h0/dp 1-10: these spacings are
+// at or above theirs.
 //
 // Measured (declared before the first run): the jump's arrival at a bore gauge is the first sample deeper than
 // 2 h0 (halfway up a Froude-2 jump of 3.5 h0; above the deepest granular jump the band below allows, 2.4 h0); c
-// is the least-squares slope of distance against arrival. The window W runs from the arrival at the first water
-// gauge (10 h0) to the last (26 h0, still 4 h0 downstream of the approach gauge); for the granular scene from
-// 7 h0 (two jump heights, clear of the impact's splash) to 13 h0. Over W: H is the mean depth 1.5 h0 from the
-// wall (beyond the kernel's 2h, where a gauge reads low), F the mean of the instantaneous load on the wall, the
-// approaching depth h_a and discharge q_a those of the gauge and section 2 h0 past the inlet.
+// is the least-squares slope of distance against arrival. The window W runs from the arrival 7 h0 out (two jump
+// heights, clear of the impact's splash) to the arrival 13 h0 out (still 5 h0 downstream of the approach gauge),
+// for both scenes. Over W: H is the mean depth 1.5 h0 from the wall (beyond the kernel's 2h, where a gauge
+// reads low), F the mean of the instantaneous load on the wall, the approaching depth h_a and discharge q_a
+// those of the gauge and section 2 h0 past the inlet.
 //
 // Tolerances, declared before the first run, and their sources:
 //  * water, H against the jump relation from the inlet's h0 and u0: 5 % + dp. The inlet's delivered discharge
@@ -66,10 +60,16 @@
 //    from the wall's load and kappa_J = 2 r Fr^2 / ((r - 1)^2 (r + 1)) from the jump's height over the measured
 //    approach.
 // Also asserted: each run completes without a leak, and the jump reaches every bore gauge within the run.
-// Known failure (tests/CMakeLists.txt, WILL_FAIL): the granular kappa's at h0/dp 6 (2.82 and 2.87, just above
-// the passive 2.77; 2.71 and 2.67 at 8).
-// Not in CI: at h0/dp 12 (run once) the water jump's speed from the gauges is 16.3 % slow, outside its 15.3 %
-// (docs/validation.md section 9: the jump meets a stream with a standing undulation and arrives in steps).
+// Known failures (tests/CMakeLists.txt, WILL_FAIL), the aims kept as declared:
+//  * water, H, c and the wall force over W at h0/dp 6, 8, 10: kappa 0.837 / 0.849 / 0.652 against
+//    1 +- 0.147 / 0.121 / 0.101 (the impact sets the water between the wall and the jump sloshing, a seiche of
+//    period ~2 l / sqrt(g H), l the jump's distance from the wall, and W lies in it), and at 10 H +11.6 % and
+//    c +27.8 % (W catches the runup's splash);
+//  * the granular kappa's (at h0/dp 6 2.82 and 2.87, just above the passive 2.77; 2.71 and 2.67 at 8).
+// A measurement, not a test: after the first run showed the water force's shortfall, a water scene with a 32 h0
+// channel and a window 10-26 h0 out was designed to measure the force away from the seiche
+// (momentum_jump_water_long_2d.json). It is run on request only, by the disabled
+// MomentumJump.DISABLED_WaterLongChannelMeasurement, which prints its figures and asserts nothing about them.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -287,7 +287,8 @@ Theory water_theory() {
 }  // namespace
 
 TEST(MomentumJump, TheScenesAreAsDescribed) {
-  for (const char* file : {"momentum_jump_water_2d.json", "momentum_jump_flume_2d.json"}) {
+  for (const char* file :
+       {"momentum_jump_water_2d.json", "momentum_jump_flume_2d.json", "momentum_jump_water_long_2d.json"}) {
     SCOPED_TRACE(file);
     const json s = read_json(kDir / file);
     const double wall = s["boundaries"][1]["min"][0].get<double>(), g_n = s.contains("gravity") ? -s["gravity"][1].get<double>() : 9.81;
@@ -309,6 +310,13 @@ TEST(MomentumJump, TheScenesAreAsDescribed) {
     }
     EXPECT_GT(wall - d.back() * kH0, 2 * kH0);
   }
+  // The water and granular scenes share their layout: channel, wall, gauges.
+  {
+    const json w = read_json(kDir / "momentum_jump_water_2d.json"), g = read_json(kDir / "momentum_jump_flume_2d.json");
+    EXPECT_EQ(w["boundaries"], g["boundaries"]);
+    EXPECT_EQ(w["monitors"], g["monitors"]);
+    EXPECT_EQ(w["domain"], g["domain"]);
+  }
   // The granular slope's tangent is the basal friction coefficient sin(phi); |g| = 9.81.
   const json g = read_json(kDir / "momentum_jump_flume_2d.json");
   const double phi = g["materials"][0]["friction_angle"].get<double>() * M_PI / 180;
@@ -316,10 +324,10 @@ TEST(MomentumJump, TheScenesAreAsDescribed) {
   EXPECT_NEAR(std::hypot(g["gravity"][0].get<double>(), g["gravity"][1].get<double>()), 9.81, 1e-5);
 }
 
-TEST(MomentumJump, WaterJumpHeightSpeedAndWallForce) {
+TEST(MomentumJump, WaterJumpHeightAndSpeed) {
   const Theory th = water_theory();
   for (double n : spacings({6, 8})) {
-    const Jump r = run_jump("momentum_jump_water_2d.json", n, 10, 26);
+    const Jump r = run_jump("momentum_jump_water_2d.json", n, 7, 13);
     print(r);
     SCOPED_TRACE(n);
     ASSERT_EQ(r.status, "completed") << r.error;
@@ -327,10 +335,50 @@ TEST(MomentumJump, WaterJumpHeightSpeedAndWallForce) {
     ASSERT_TRUE(r.formed()) << "the jump did not reach the last bore gauge";
     EXPECT_NEAR(r.H, th.H, 0.05 * th.H + r.dp) << "jump height";
     EXPECT_NEAR(r.c, th.c, (0.05 + (0.05 * th.H + r.dp) / (th.H - kH0)) * th.c) << "jump speed";
-    const double kappa = 2 * r.F / (r.rho0 * 9.81 * r.H * r.H);
-    EXPECT_NEAR(kappa, 1.0, 0.05 + 2 * r.dp / r.H) << "wall force against rho g H^2 / 2";
     std::printf("    against theory: H %+.1f %%, c %+.1f %%, F %+.1f %% of rho g H_th^2 / 2\n", 100 * (r.H / th.H - 1),
                 100 * (r.c / th.c - 1), 100 * (r.F / th.F - 1));
+  }
+}
+
+// Known failure (tests/CMakeLists.txt, WILL_FAIL): the declared water aim in full, H, c and the wall force over
+// the declared window, on the water ladder declared at 056d371 (6, 8, 10). Over the window the wall force is not
+// yet the hydrostatic load of the water at rest behind the jump: the impact sets the water between the wall and
+// the jump sloshing (a seiche of period ~2 l / sqrt(g H), l the jump's distance from the wall, so it never gets
+// many periods behind it), and the window lies in it (kappa 0.84-0.85 at 6 and 8). At 10 the window catches the
+// runup's splash and H and c miss as well. H and c at 6 and 8 pass and are asserted in the test above too;
+// docs/validation.md section 9 has the figures.
+TEST(MomentumJump, DISABLED_WaterJumpAndWallForceOverTheDeclaredWindow) {
+  const Theory th = water_theory();
+  for (double n : spacings({6, 8, 10})) {
+    const Jump r = run_jump("momentum_jump_water_2d.json", n, 7, 13);
+    print(r);
+    SCOPED_TRACE(n);
+    ASSERT_EQ(r.status, "completed") << r.error;
+    EXPECT_EQ(r.leaks, 0);
+    ASSERT_TRUE(r.formed()) << "the jump did not reach the last bore gauge";
+    const double kappa = 2 * r.F / (r.rho0 * 9.81 * r.H * r.H);
+    std::printf("    against theory: H %+.1f %%, c %+.1f %%; kappa %.3f (limits 1 +- %.3f), F %+.1f %% of rho g H_th^2 / 2\n",
+                100 * (r.H / th.H - 1), 100 * (r.c / th.c - 1), kappa, 0.05 + 2 * r.dp / r.H, 100 * (r.F / th.F - 1));
+    EXPECT_NEAR(r.H, th.H, 0.05 * th.H + r.dp) << "jump height";
+    EXPECT_NEAR(r.c, th.c, (0.05 + (0.05 * th.H + r.dp) / (th.H - kH0)) * th.c) << "jump speed";
+    EXPECT_NEAR(kappa, 1.0, 0.05 + 2 * r.dp / r.H) << "wall force against rho g H^2 / 2 over the window";
+  }
+}
+
+// A measurement, not a test (no ctest entry; run with --gtest_also_run_disabled_tests
+// --gtest_filter='*LongChannel*'): the 32 h0 water channel designed after the first run, to measure the wall
+// force away from the impact's seiche, read from the jump's arrival 10 h0 out to its arrival 26 h0 out. It
+// prints the figures docs/validation.md section 9 reports and asserts only that the run completed.
+TEST(MomentumJump, DISABLED_WaterLongChannelMeasurement) {
+  const Theory th = water_theory();
+  for (double n : spacings({6, 8})) {
+    const Jump r = run_jump("momentum_jump_water_long_2d.json", n, 10, 26);
+    print(r);
+    SCOPED_TRACE(n);
+    ASSERT_EQ(r.status, "completed") << r.error;
+    if (!r.formed()) continue;
+    std::printf("    against theory: H %+.1f %%, c %+.1f %%, F %+.1f %% of rho g H_th^2 / 2 (not asserted)\n",
+                100 * (r.H / th.H - 1), 100 * (r.c / th.c - 1), 100 * (r.F / th.F - 1));
   }
 }
 
