@@ -54,6 +54,25 @@ TEST(CostFeatures, ReadTheBuiltSceneAndTheRestStep) {
   EXPECT_NEAR(f.dt0, std::min(acoustic, wave), 1e-12 * f.dt0);
 }
 
+// The implicit viscous step has no viscous step limit, and its two solves a step cost passes of their own.
+TEST(CostFeatures, TheImplicitViscousStepTakesNoViscousLimitAndCostsMorePasses) {
+  json j = tank_2d();
+  j["materials"] = json::parse(R"([{"name": "mud", "rheology": "bingham", "density": 2000, "viscosity": 1,
+                                    "yield_stress": 100}])");
+  j["fluid"][0]["material"] = "mud";
+  j["numerics"] = {{"viscosity_cap", 1e4}};  // Pa s: binds the explicit step far below the acoustic limit
+  const CostFeatures implicit = cost_features(parse_scene(j.dump()));
+  j["numerics"]["viscosity"] = "explicit";
+  const Scene explicit_scene = parse_scene(j.dump());
+  const CostFeatures explicit_step = cost_features(explicit_scene);
+  const auto& c = std::get<SceneSetup<2>>(explicit_scene.setup).config;
+  const double h = c.smoothing_length, acoustic = c.cfl * h / c.speed_of_sound;
+  EXPECT_NEAR(explicit_step.dt0, 0.125 * h * h * 2000 / 1e4, 1e-12);
+  EXPECT_NEAR(implicit.dt0, std::min(acoustic, c.cfl * std::sqrt(h / 9.81)), 1e-12);
+  EXPECT_EQ(explicit_step.passes, 2);
+  EXPECT_GT(implicit.passes, explicit_step.passes);
+}
+
 TEST(CostFeatures, InletsAddTheirBufferAndHalfOfWhatTheyDeliver) {
   json j = tank_2d();
   j["duration"] = 2.0;

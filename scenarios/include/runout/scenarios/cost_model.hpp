@@ -3,13 +3,15 @@
 // (docs/tradeoff.md, "The cost model"). The work of an SPH step is the particle pairs it visits, so
 //
 //   steps          = k_D * duration / dt0
-//   dt0            = min(cfl h / c0, 0.125 h^2 / nu_max, cfl sqrt(h / g))        (the engine's limits at rest)
+//   dt0            = min(cfl h / c0, 0.125 h^2 / nu_max, cfl sqrt(h / g))        (the engine's limits at rest;
+//                                                                                   no viscous one when implicit)
 //   seconds/step   = (a_D * fluid_mean * (h/dp)^D * passes + b_D * boundary + c_D) / speedup
 //   speedup        = 1 + e * fluid_mean / (fluid_mean + N_half) * (threads - 1)
 //
 // fluid_mean is the flow particles averaged over the run (inlets add theirs as they enter), (h/dp)^D scales
 // the neighbours each one visits, passes is 2 when a material carries a stress (velocity gradient, then
-// stress divergence) and 1 for inviscid water; boundary is the boundary particles alive at most: the fixed
+// stress divergence) and 1 for inviscid water, plus what the implicit viscous step's two solves a step cost in
+// such passes (measured, cost_model.cpp); boundary is the boundary particles alive at most: the fixed
 // walls, and on terrain the bed near the flow, predicted as
 //
 //   bed alive      = min(bed, k_bed * fluid_peak^((D-1)/D))
@@ -40,7 +42,7 @@ struct CostFeatures {
   double boundary_fixed = 0;  // always alive: walls, structures, a terrain laid whole
   double bed = 0;          // a terrain's bed laid only near the flow (the engine's wall source): all it can lay
   double neighbours = 0;   // (h/dp)^D
-  double passes = 1;       // 1 inviscid, 2 with a stress term
+  double passes = 1;       // 1 inviscid, 2 with a stress term, more with the implicit viscous step
   double duration = 0;     // [s]
   double dt0 = 0;          // the step at rest [s]
 };
