@@ -87,6 +87,7 @@
 
 #include "runout/scenarios/run.hpp"
 #include "runout/scenarios/scene.hpp"
+#include "series_csv.hpp"
 
 using namespace runout;
 using json = nlohmann::json;
@@ -102,33 +103,8 @@ json read_json(const fs::path& p) {
   return json::parse(in);
 }
 
-struct Series {
-  std::vector<std::string> header;
-  std::vector<std::vector<double>> rows;
-  std::vector<double> col(const std::string& name) const {
-    const size_t k = static_cast<size_t>(std::find(header.begin(), header.end(), name) - header.begin());
-    std::vector<double> v;
-    if (k >= header.size()) return v;
-    for (const auto& r : rows) v.push_back(r[k]);
-    return v;
-  }
-};
-
-Series read_csv(const fs::path& p) {
-  Series s;
-  std::ifstream in(p);
-  std::string line, c;
-  if (!std::getline(in, line)) return s;
-  std::stringstream hs(line);
-  while (std::getline(hs, c, ',')) s.header.push_back(c);
-  while (std::getline(in, line)) {
-    std::vector<double> v;
-    std::stringstream ss(line);
-    while (std::getline(ss, c, ',')) v.push_back(std::stod(c));
-    s.rows.push_back(v);
-  }
-  return s;
-}
+using runout_test::read_csv;
+using runout_test::Series;
 
 // The jump relation kappa (r - 1)^2 (r + 1) = 2 r Fr^2: its root r > 1, by bisection (f(1) < 0, f grows as r^3).
 double jump_ratio(double froude, double kappa) {

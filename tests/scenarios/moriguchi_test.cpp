@@ -54,6 +54,7 @@
 
 #include "runout/scenarios/run.hpp"
 #include "runout/scenarios/scene.hpp"
+#include "series_csv.hpp"
 
 using namespace runout;
 using json = nlohmann::json;
@@ -113,33 +114,8 @@ json flume_at(double theta, double dp) {
   return s;
 }
 
-struct Series {
-  std::vector<std::string> header;
-  std::vector<std::vector<double>> rows;
-  std::vector<double> col(const std::string& name) const {
-    const size_t k = static_cast<size_t>(std::find(header.begin(), header.end(), name) - header.begin());
-    std::vector<double> v;
-    if (k >= header.size()) return v;
-    for (const auto& r : rows) v.push_back(r[k]);
-    return v;
-  }
-};
-
-Series read_csv(const fs::path& p) {
-  Series s;
-  std::ifstream in(p);
-  std::string line, c;
-  if (!std::getline(in, line)) return s;
-  std::stringstream hs(line);
-  while (std::getline(hs, c, ',')) s.header.push_back(c);
-  while (std::getline(in, line)) {
-    std::vector<double> v;
-    std::stringstream ss(line);
-    while (std::getline(ss, c, ',')) v.push_back(std::stod(c));
-    s.rows.push_back(v);
-  }
-  return s;
-}
+using runout_test::read_csv;
+using runout_test::Series;
 
 double trapezoid(const std::vector<double>& t, const std::vector<double>& f) {
   double sum = 0;
