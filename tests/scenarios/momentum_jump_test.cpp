@@ -29,7 +29,7 @@
 //    stream slides on and the jump's balance above holds without the two terms it leaves out.
 // h0/dp = 6 and 8 in CI (RUNOUT_MOMENTUM_JUMP_SPACINGS="10,12" runs others). 8, 12, 16 were declared first; a
 // trial run at 8 cost 36 s (water) and 112 s (granular, implicit step) on one thread, so the ladder was cut to
-// what fits the executable's CI budget of ~4 minutes: water 6/8/10 (056d371), granular 6/8. At h0/dp 10 the
+// what fits the executable's CI budget of ~4 minutes: water 6/8/10, granular 6/8. At h0/dp 10 the
 // water's H and c miss (the window catches the runup's splash), so 10 is asserted in the water known failure
 // below, which asserts the declared aim in full; the passing water test asserts H and c at 6 and 8, where they
 // hold. The studies run their flume at dp 0.01-0.05 m on flows 0.05-0.1 m deep, h0/dp 1-10: these spacings are
@@ -317,7 +317,7 @@ TEST(MomentumJump, WaterJumpHeightAndSpeed) {
 }
 
 // Known failure (tests/CMakeLists.txt, WILL_FAIL): the declared water aim in full, H, c and the wall force over
-// the declared window, on the water ladder declared at 056d371 (6, 8, 10). Over the window the wall force is not
+// the declared window, on the water ladder first declared (6, 8, 10). Over the window the wall force is not
 // yet the hydrostatic load of the water at rest behind the jump: the impact sets the water between the wall and
 // the jump sloshing (a seiche of period ~2 l / sqrt(g H), l the jump's distance from the wall, so it never gets
 // many periods behind it), and the window lies in it (kappa 0.84-0.85 at 6 and 8). At 10 the window catches the
