@@ -889,6 +889,9 @@ void add_terrain_metrics(json& m, const Scene& scene, const TerrainWatch<D>& wat
 template <int D>
 RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOptions& opt) {
   if (opt.threads > 0) omp_set_num_threads(opt.threads);
+  // The series are written whole at the end (a resumed run's from its checkpoint's state), so nothing in the folder
+  // is this run's yet: clear it, or a monitor of an earlier run into this folder would outlive it.
+  fs::remove_all(opt.out_dir / "series");
   fs::create_directories(opt.out_dir / "series");
 
   Solver<D> solver(setup);
