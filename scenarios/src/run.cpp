@@ -52,6 +52,21 @@ real front_position(const ParticleArrays<D>& f) {
   return x[k - 1];
 }
 
+// The flow's centre of mass (mass-weighted, the scene's frame), inlet buffers left out; NaN when there is no flow.
+template <int D>
+std::array<double, D> centre_of_mass(const ParticleArrays<D>& f) {
+  std::array<double, D> c;
+  c.fill(0.0);
+  double mass = 0;
+  for (size_t i = 0; i < f.size(); ++i) {
+    if (Solver<D>::is_inlet_buffer(f.tag[i])) continue;
+    for (int d = 0; d < D; ++d) c[d] += static_cast<double>(f.mass[i]) * f.pos[d][i];
+    mass += f.mass[i];
+  }
+  for (auto& v : c) v = mass > 0 ? v / mass : std::nan("");
+  return c;
+}
+
 template <int D>
 std::vector<real> flow_speeds(const ParticleArrays<D>& f) {
   std::vector<real> speed(f.size());
@@ -539,6 +554,7 @@ struct LoopState {
   size_t fluid_initial = 0;   // flow particles at the start
   real resumed_from = -1;     // [s] simulated time of that checkpoint; -1: a fresh run
   int sessions = 1;           // this one and those before it
+  std::array<double, 3> com_start{};  // the flow's centre of mass at the start (x, y, z; 2D: x, z, 0)
 };
 
 // OUT/checkpoint.bin (RunOptions::checkpoint_interval): the scene it belongs to, then the solver's, the
@@ -635,12 +651,16 @@ class Checkpoint {
     out.label("loop");
     out.value(l.next_sample), out.value(l.rest_since), out.value(l.particle_steps);
     out.value(l.wall_before + elapsed), out.value<uint64_t>(l.fluid_initial), out.value(l.sessions);
+    out.label("start centre of mass");
+    for (double v : l.com_start) out.value(v);
   }
   static void load_loop(StateReader& in, LoopState& l) {
     in.expect("loop");
     in.value(l.next_sample), in.value(l.rest_since), in.value(l.particle_steps), in.value(l.wall_before);
     l.fluid_initial = in.value<uint64_t>();
     l.sessions = in.value<int>() + 1;
+    in.expect("start centre of mass");
+    for (double& v : l.com_start) in.value(v);
   }
 
   const Scene& scene_;
@@ -659,6 +679,8 @@ void record_start(const Scene& scene, Solver<D>& solver, RunSeries<D>& series, T
     watch.check(solver, 0.0);
     watch.update(solver.fluid(), solver.materials(), solver.time());
   }
+  const auto c = centre_of_mass(solver.fluid());
+  for (int d = 0; d < D; ++d) loop.com_start[d] = c[d];
   snapshots.first(solver);
   series.sample(solver.last_step());
   series.sample_monitors();
@@ -809,6 +831,22 @@ json speed_of_sound_metrics(const Solver<D>& solver) {
   return s;
 }
 
+// The centre of mass's path from the start to the end: its horizontal travel, its drop and their ratio, the
+// travel angle an energy line (a Coulomb block: tan = mu) predicts. null where the start or the end had no flow
+// (an inlet's run starts empty).
+template <int D>
+json centre_of_mass_metrics(const ParticleArrays<D>& f, const std::array<double, 3>& start) {
+  const auto end = centre_of_mass(f);
+  if (std::isnan(start[0]) || std::isnan(end[0])) return nullptr;
+  double travel2 = 0;
+  for (int d = 0; d + 1 < D; ++d) travel2 += (end[d] - start[d]) * (end[d] - start[d]);
+  const double travel = std::sqrt(travel2), drop = start[D - 1] - end[D - 1];
+  json s = json::array(), e = json::array();
+  for (int d = 0; d < D; ++d) s.push_back(start[d]), e.push_back(end[d]);
+  return {{"start_m", s}, {"end_m", e}, {"horizontal_travel_m", travel}, {"drop_m", drop},
+          {"travel_angle_deg", travel > 0 ? std::atan2(drop, travel) * 180 / M_PI : 0.0}};
+}
+
 struct ParticleCounts {
   size_t fluid_initial = 0, boundary = 0, leaked = 0;
 };
@@ -877,6 +915,13 @@ void add_terrain_metrics(json& m, const Scene& scene, const TerrainWatch<D>& wat
   m["terrain"] = write_terrain_outputs(*scene.terrain, watch.grid(), scene.output, out_dir, watch.positions(),
                                        watch.volumes(), label);
   m["terrain"]["corridor_outflow"] = watch.corridor_outflow();
+  if (json& com = m["centre_of_mass"]; !com.is_null())  // in map coordinates too, as the DEM's
+    for (const std::string k : {"start", "end"}) {
+      json p = com[k + "_m"];
+      p[0] = p[0].get<double>() + scene.terrain->origin_x;
+      p[1] = p[1].get<double>() + scene.terrain->origin_y;
+      com[k + "_map"] = p;
+    }
   if (watch.outflow_particles() > 0 && status != "failed") {
     std::ostringstream w;
     w.precision(3);
@@ -927,6 +972,7 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
 
   series.write(opt.out_dir / "series");
   json m = run_metrics(scene, solver, sum, counts, series.max_ke_excess());
+  m["centre_of_mass"] = centre_of_mass_metrics(solver.fluid(), loop.com_start);
   if (loop.resumed_from >= 0) m["resumed"] = {{"from_s", loop.resumed_from}, {"sessions", loop.sessions}};
   if (!checkpoint.failures().empty()) m["warnings"].push_back(checkpoint.failures());
   m["monitors"] = series.summaries();
