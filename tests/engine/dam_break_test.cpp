@@ -20,7 +20,10 @@
 //      from the experiment only by that delay has a mean relative error of 8.0 % over the points used here;
 //    - the experiment's scatter: Martin & Moyce's a = 1.125 in column against the a = 2.25 in one at the same T
 //      differ by 3.4 % on average (up to 9 %).
-//    The limit is their sum (11.4 %). The issue's aim, 6 %, is not reached: docs/validation.md, section 2.
+//    Their sum, 11.4 %, was composed after the 9.1 % it would judge had been measured, and every converged run
+//    (7.7-10.3 %) is inside it, so it is printed, not asserted (issue 42, item 4.1). What is asserted is the
+//    aim its issue set before any run, 6 %, as a known failure (DISABLED_FrontWithinSixPercentOfMartinMoyce,
+//    WILL_FAIL): the converged front leads by 8-11 %, docs/validation.md, section 2.
 //    The same error against Koshizuka & Oka's curve (T in [1, 3.1]) is printed, not asserted: the stored copy of
 //    that curve does not say whether it is measured or computed (docs/validation-data.md, 3.2).
 // 4. Mach number under 0.1 (c0 = 50 m/s), no leak, mass exact.
@@ -85,9 +88,8 @@ double interp(const std::vector<Point>& s, double T) {
   return std::nan("");
 }
 
-}  // namespace
-
-TEST(DamBreakValidation, SurgeFrontAgainstRitterAndMartinMoyce) {
+// Runs the scene and checks what holds (the bounds: items 1, 2, 4) or, with `aim`, the position aim of item 3.
+void surge_front(bool aim) {
   const Scene scene = load_scene(RUNOUT_SOURCE_DIR "/scenarios/validation/dam_break_mm_2d.json");
   const auto& setup = std::get<SceneSetup<2>>(scene.setup);
   const real dp = scene.dp;
@@ -105,7 +107,8 @@ TEST(DamBreakValidation, SurgeFrontAgainstRitterAndMartinMoyce) {
   const double Tscale = std::sqrt(2 * g / a);  // T = t sqrt(2g/a) = n t sqrt(g/a) for n^2 = 2
   const double ritter = 2 * std::sqrt(g * H);
 
-  const std::filesystem::path out = std::filesystem::path(RUNOUT_BINARY_DIR) / "validation" / "dam_break_mm_2d";
+  const std::filesystem::path out =
+      std::filesystem::path(RUNOUT_BINARY_DIR) / "validation" / (aim ? "dam_break_mm_2d_aim" : "dam_break_mm_2d");
   RunOptions opt;
   opt.out_dir = out;
   const RunSummary sum = run_scene(scene, opt);
@@ -199,18 +202,30 @@ TEST(DamBreakValidation, SurgeFrontAgainstRitterAndMartinMoyce) {
   std::printf(
       "  dam break: a = %.3f m, dp = %.4f m; front speed max over 0.1 s %.3f m/s = %.3f of Ritter %.3f m/s; mean "
       "speed T in [2,6] %.3f of Ritter (experiment %.3f, ratio %.3f); no time shift: mean error against Martin & "
-      "Moyce %.1f %% (worst %.1f %%; limit %.1f %% = release %.1f %% + scatter %.1f %%), against Koshizuka & Oka "
-      "%.1f %% (worst %.1f %%); Z(T=6) = %.2f (experiment %.2f); max Mach %.3f; %ld steps, %.1f s wall\n",
+      "Moyce %.1f %% (worst %.1f %%; aim 6 %%; the former limit, not asserted: %.1f %% = release %.1f %% + "
+      "scatter %.1f %%), against Koshizuka & Oka %.1f %% (worst %.1f %%); Z(T=6) = %.2f (experiment %.2f); max "
+      "Mach %.3f; %ld steps, %.1f s wall\n",
       a, dp, vmax, vmax / ritter, ritter, sim_speed, exp_speed, sim_speed / exp_speed, 100 * err_mm,
       100 * worst_mm, 100 * limit, 100 * release_part, 100 * scatter, 100 * err_ko, 100 * worst_ko,
       interp(sim, 6.0), interp(kPySph, 6.0), m["max_mach"].get<double>(), sum.steps, sum.wall_seconds);
 
+  if (aim) {
+    EXPECT_LE(err_mm, 0.06) << "mean front error against Martin & Moyce";
+    return;
+  }
   EXPECT_LE(vmax, ritter);
   EXPECT_NEAR(sim_speed / exp_speed, 1.0, 0.10);
-  EXPECT_LE(err_mm, limit);
   EXPECT_LT(m["max_mach"].get<double>(), 0.1);
   EXPECT_EQ(m["leaks"].get<int>(), 0);
   EXPECT_LT(std::abs(m["mass"]["relative_error"].get<double>()), 1e-12);
   // The comparison needs the front to have passed T = 6.3 before the run ends.
   EXPECT_GT(sim.back().T, 6.35);
 }
+
+}  // namespace
+
+TEST(DamBreakValidation, SurgeFrontAgainstRitterAndMartinMoyce) { surge_front(false); }
+
+// Known failure (tests/CMakeLists.txt, WILL_FAIL): item 3's aim, the front within 6 % of Martin & Moyce on
+// average with no time shift; converged runs lead by 8-11 % (docs/validation.md section 2).
+TEST(DamBreakValidation, DISABLED_FrontWithinSixPercentOfMartinMoyce) { surge_front(true); }

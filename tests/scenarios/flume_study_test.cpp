@@ -6,9 +6,9 @@
 //     0.9; without the floor the draft C1 and C6 end at p50 0.51 and 0.47, p5 0.17);
 //   - the study's findings on the inundated area and the runout where the layouts differ by more than those
 //     metrics' error at draft (6.6 % and 7.9 % from fine on the C6 ladder on extrapolated walls,
-//     docs/tradeoff.md): a retention basin shrinks both below C0 (C4 by 13 % and 9 %, the runout's margin only
-//     just above its error; C5 by 31 % and 23 %), and the area below C1 with the deposition area ahead (C7,
-//     25 %).
+//     docs/tradeoff.md), asserted with that error as the margin: a retention basin shrinks both below C0 (C4 by
+//     13 % and 9 % at the explicit step, 11 % in runout at the implicit one; C5 by 31 % and 23 %), and the area
+//     below C1 with the deposition area ahead (C7, 25 %).
 // Not asserted, because the ladder shows the metric unconverged at draft or the margin is inside the error
 // (docs/study.md lists each with its numbers): the dam forces, the outlet's peak discharge and volume, the
 // deposit depth, the higher basin wall's effect, and friction-HBP against plain HBP tuned to the same
@@ -91,12 +91,16 @@ TEST(FlumeStudy, DraftSweepKeepsMassAndDensityAndShowsTheConvergedFindings) {
     EXPECT_GE(at(variant, "final_density_ratio.p5"), 0.9 - 1e-9) << variant << ": dilated beyond 10 %";
   }
 
-  // Findings on the inundated area and the runout.
-  EXPECT_LT(at("C4", area), at("C0", area)) << "basin, inundated area";
-  EXPECT_LT(at("C4", runout), at("C0", runout)) << "basin, runout";
-  EXPECT_LT(at("C5", area), at("C0", area)) << "higher-walled basin, inundated area";
-  EXPECT_LT(at("C5", runout), at("C0", runout)) << "higher-walled basin, runout";
-  EXPECT_LT(at("C7", area), at("C1", area)) << "basin behind the deposition area, inundated area";
+  // Findings on the inundated area and the runout, each with the metric's draft error as its margin
+  // (X_a < (1 - e) X_b; issue 41 item 5): e = 6.6 % for the area and 7.9 % for the runout, the draft-from-fine
+  // deviations of the C6 ladder (docs/tradeoff.md), measured before these margins were written in and not
+  // re-measured at the implicit step.
+  constexpr double e_area = 0.066, e_runout = 0.079;
+  EXPECT_LT(at("C4", area), (1 - e_area) * at("C0", area)) << "basin, inundated area";
+  EXPECT_LT(at("C4", runout), (1 - e_runout) * at("C0", runout)) << "basin, runout";
+  EXPECT_LT(at("C5", area), (1 - e_area) * at("C0", area)) << "higher-walled basin, inundated area";
+  EXPECT_LT(at("C5", runout), (1 - e_runout) * at("C0", runout)) << "higher-walled basin, runout";
+  EXPECT_LT(at("C7", area), (1 - e_area) * at("C1", area)) << "basin behind the deposition area, inundated area";
 
   // The table, for docs/study.md.
   for (const auto& [variant, mv] : m)
