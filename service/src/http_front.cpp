@@ -157,8 +157,14 @@ std::string trim(const std::string& s) {
   return a == std::string::npos ? std::string() : s.substr(a, b - a + 1);
 }
 
-bool tchar(char c) {
-  return std::isalnum(static_cast<unsigned char>(c)) || std::strchr("!#$%&'*+-.^_`|~", c) != nullptr;
+bool tchar(char c) {  // strchr finds a NUL too (the terminator): excluded first
+  return c != '\0' && (std::isalnum(static_cast<unsigned char>(c)) || std::strchr("!#$%&'*+-.^_`|~", c) != nullptr);
+}
+
+// RFC 9110 5.5: a field value is visible characters, obs-text, SP and HTAB; any other control byte or DEL is refused.
+bool field_byte(char c) {
+  const auto u = static_cast<unsigned char>(c);
+  return u == '\t' || (u >= 0x20 && u != 0x7f);
 }
 
 int hexval(char c) {
@@ -226,6 +232,15 @@ void parse_head(const std::string& head, httplib::Request& req) {
   if (req.version != "HTTP/1.1" && req.version != "HTTP/1.0")
     throw Refusal{505, "(request)", "unsupported protocol version (accepted: HTTP/1.1 or HTTP/1.0)"};
   if (req.target.size() > 8192) throw Refusal{414, "(request)", "the request target is over 8192 bytes"};
+  // Absolute form (RFC 9112 3.2.2: a server MUST accept it): routed by its path, the authority ignored.
+  if (const size_t scheme = req.target.find("://"); scheme != std::string::npos && scheme > 0 && req.target[0] != '/') {
+    const std::string s = lower(req.target.substr(0, scheme));
+    if (s != "http" && s != "https")
+      throw Refusal{400, "(request)", "malformed request target (accepted: an absolute path, or an http(s) URI)"};
+    const size_t path = req.target.find_first_of("/?", scheme + 3);
+    req.target = path == std::string::npos ? "/" : req.target[path] == '?' ? "/" + req.target.substr(path)
+                                                                             : req.target.substr(path);
+  }
   if (req.target.empty() || (req.target[0] != '/' && !(req.target == "*" && req.method == "OPTIONS")) ||
       std::any_of(req.target.begin(), req.target.end(), [](char c) { return static_cast<unsigned char>(c) <= 0x20 || c == 0x7f; }))
     throw Refusal{400, "(request)", "malformed request target (accepted: an absolute path starting with '/')"};
@@ -239,8 +254,8 @@ void parse_head(const std::string& head, httplib::Request& req) {
     if (colon == std::string::npos || name.empty() || !std::all_of(name.begin(), name.end(), tchar))
       throw Refusal{400, "(headers)", "malformed header line (accepted: Name: value, no space before the colon)"};
     const std::string value = trim(h.substr(colon + 1));
-    if (std::any_of(value.begin(), value.end(), [](char c) { return c == '\0' || c == '\r' || c == '\n'; }))
-      throw Refusal{400, name, "control character in the header's value"};
+    if (!std::all_of(value.begin(), value.end(), field_byte))
+      throw Refusal{400, name, "control character in the header's value (accepted: visible characters, SP and HTAB)"};
     req.headers.emplace(name, value);
   }
   // Headers whose repetition is ambiguous (smuggling, two keys, two tokens) are refused, equal or not.
@@ -248,6 +263,8 @@ void parse_head(const std::string& head, httplib::Request& req) {
                            "Idempotency-Key", "Host", "Expect"})
     if (req.get_header_value_count(once) > 1)
       throw Refusal{400, once, "given " + std::to_string(req.get_header_value_count(once)) + " times (accepted: once)"};
+  if (req.version == "HTTP/1.1" && !req.has_header("Host"))
+    throw Refusal{400, "Host", "missing (accepted: an HTTP/1.1 request names its Host, RFC 9112)"};
   const size_t q = req.target.find('?');
   req.path = decode(req.target.substr(0, q), false);
   if (q != std::string::npos) parse_query(req.target.substr(q + 1), req.params);
@@ -372,6 +389,7 @@ struct HttpFront::Impl {
   std::mutex done_mutex;
   std::vector<Done> done;
   std::atomic<int64_t> open{0}, refused{0}, timed_out{0};
+  int draining = 0;  // answered connections closing (not counted in `open`)
   Clock::time_point accept_paused_until{};
 
   void wake() {
@@ -379,19 +397,22 @@ struct HttpFront::Impl {
     (void)!::write(wake_fd, &one, sizeof one);
   }
 
+  // Out of both limits' counts: a connection that is closing (draining) holds neither a client's nor the
+  // server's share.
   void uncount(Conn& c) {
     if (!c.counted) return;
     c.counted = false;
+    --open;
     if (--per_client[c.peer] <= 0) per_client.erase(c.peer);
   }
 
   void close_conn(uint64_t id) {
     auto it = conns.find(id);
     if (it == conns.end()) return;
+    if (it->second->st == Conn::St::drain) --draining;
     uncount(*it->second);
     ::close(it->second->fd);
     conns.erase(it);
-    --open;
   }
 
   // Writes what it can now; the rest when the socket is writable again. False: the connection is gone.
@@ -413,7 +434,12 @@ struct HttpFront::Impl {
       // Lingering close: the client may still be sending a body we did not read; closing now would reset the
       // connection and could destroy our answer before it is read. Read and drop for a short while.
       ::shutdown(c.fd, SHUT_WR);
+      if (draining >= opt.max_connections) {  // bounded: past it, closed at once
+        close_conn(c.id);
+        return false;
+      }
       uncount(c);
+      ++draining;
       c.st = Conn::St::drain;
       c.deadline = Clock::now() + std::chrono::seconds(2);
       return true;
@@ -557,6 +583,7 @@ struct HttpFront::Impl {
             if (c.in.size() > 1024) throw Refusal{400, "(body)", "malformed chunk size line (over 1024 bytes)"};
             return false;
           }
+          if (e > 1024) throw Refusal{400, "(body)", "malformed chunk size line (over 1024 bytes)"};
           std::string line = c.in.substr(0, e);
           c.in.erase(0, e + 2);
           line = trim(line.substr(0, line.find(';')));  // chunk extensions are ignored
@@ -655,11 +682,6 @@ struct HttpFront::Impl {
           accept_paused_until = Clock::now() + std::chrono::milliseconds(100);
         return;  // EAGAIN, or a transient error: poll again
       }
-      if (open >= opt.max_connections + 64) {  // far over the limit: not even an answer
-        ::close(fd);
-        ++refused;
-        continue;
-      }
       char host[INET6_ADDRSTRLEN] = "?";
       if (addr.ss_family == AF_INET)
         ::inet_ntop(AF_INET, &reinterpret_cast<sockaddr_in*>(&addr)->sin_addr, host, sizeof host);
@@ -667,30 +689,46 @@ struct HttpFront::Impl {
         ::inet_ntop(AF_INET6, &reinterpret_cast<sockaddr_in6*>(&addr)->sin6_addr, host, sizeof host);
       const int one = 1;
       ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);  // small replies: no Nagle + delayed ACK
+      // Over a limit: answered and closed at once, never counted. A refused connection that lingered (and
+      // counted) let one address flooding connections lock every other client out.
+      if (open >= opt.max_connections) {
+        refuse_at_accept(fd, {503, "(connection)",
+                              "the server has " + std::to_string(opt.max_connections) +
+                                  " open connections (accepted: at most that many, --max-connections); retry shortly",
+                              {{"Retry-After", "1"}}});
+        continue;
+      }
+      auto pc = per_client.find(host);
+      if (pc != per_client.end() && pc->second >= opt.max_connections_per_client) {
+        refuse_at_accept(fd, {429, "(connection)",
+                              "this client address has " + std::to_string(pc->second) +
+                                  " open connections (accepted: at most " + std::to_string(opt.max_connections_per_client) +
+                                  " per client address, --max-connections-per-client)",
+                              {{"Retry-After", "1"}}});
+        continue;
+      }
       auto c = std::make_unique<Conn>();
       c->id = next_id++;
       c->fd = fd;
       c->peer = host;
       c->deadline = Clock::now() + secs(opt.header_timeout);
-      Conn& ref = *c;
+      ++per_client[c->peer];
       conns.emplace(c->id, std::move(c));
       ++open;
-      const int mine = ++per_client[ref.peer];
-      if (open > opt.max_connections) {
-        ++refused;
-        refuse(ref, {503, "(connection)",
-                     "the server has " + std::to_string(opt.max_connections) +
-                         " open connections (accepted: at most that many, --max-connections); retry shortly",
-                     {{"Retry-After", "1"}}});
-      } else if (mine > opt.max_connections_per_client) {
-        ++refused;
-        refuse(ref, {429, "(connection)",
-                     "this client address has " + std::to_string(mine - 1) +
-                         " open connections (accepted: at most " + std::to_string(opt.max_connections_per_client) +
-                         " per client address, --max-connections-per-client)",
-                     {{"Retry-After", "1"}}});
-      }
     }
+  }
+
+  // The answer fits the socket's send buffer of a new connection; what the client already sent is read first,
+  // so that the close does not reset the connection over unread bytes (which could destroy the answer).
+  void refuse_at_accept(int fd, const Refusal& r) {
+    ++refused;
+    const std::string bytes = serialize_refusal(r, "");
+    (void)::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    ::shutdown(fd, SHUT_WR);
+    char buf[4096];
+    while (::recv(fd, buf, sizeof buf, MSG_DONTWAIT) > 0) {
+    }
+    ::close(fd);
   }
 
   void read_from(Conn& c) {
