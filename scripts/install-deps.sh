@@ -8,6 +8,7 @@ packages=(
   libeigen3-dev
   libgdal-dev gdal-bin
   libcpp-httplib-dev
+  libboost-dev  # Boost.Beast and Asio, header-only: the service's HTTP front end (docs/service.md)
   libsqlite3-dev sqlite3 libssl-dev
   libpng-dev  # the web map's coloured rasters (scenarios/src/raster_map.cpp)
   libgtest-dev  # GoogleTest only: no test uses gmock, and bench/ times with its own loops, not Google Benchmark

@@ -1,16 +1,16 @@
 #pragma once
-// The service's HTTP/1.1 front end (docs/service.md, "Limits"): one event-loop thread owns every socket and
-// reads each request's head and body completely, under byte limits and total deadlines, before a handler
-// thread sees it; handlers only compute responses, which the loop writes back.
+// The service's HTTP/1.1 front end (docs/service.md, "Limits"): Boost.Beast reads each request's head and body
+// completely, under byte limits and total deadlines, on one Asio thread, before a handler thread sees it;
+// handlers only compute responses, which Beast writes back. The glue is http_session.cpp, the policy (limits,
+// checks beyond HTTP's grammar, refusals, handler pools) http_front.cpp.
 //
-// Why not httplib's own server (0.11.4): it gives every connection a pool thread for as long as the
-// connection lives, with a per-recv() timeout (a client sending one byte a second holds a thread forever:
-// 16 such clients stop the service), and it reads chunked bodies, bodies without a Content-Length and
-// gzip-decoded bodies without any limit. Here a slow or hostile client costs a socket and a buffer in the
-// loop, never a thread, and is cut at a deadline that trickling does not restart. httplib's Request and
-// Response remain the handlers' types (and its client is the tests').
+// Why not httplib's own server (0.11.4): it gives every connection a pool thread for as long as the connection
+// lives, with a per-recv() timeout (a client sending one byte a second holds a thread forever), and reads
+// chunked bodies without any limit. Here a slow or hostile client costs a socket and a buffer, never a thread,
+// and is cut at a deadline that trickling does not restart. httplib's Request and Response remain the handlers'
+// types (and its client is the tests').
 //
-// Included by server.cpp only (it pulls in httplib.h).
+// Included by server.cpp and the front end's files (it pulls in httplib.h).
 #include <atomic>
 #include <chrono>
 #include <cstdint>

@@ -227,7 +227,9 @@ void record_built_scene(const Scene& s, JobSpec& spec) {
 }
 
 // The files a scene names must be inside the scene directory after every symbolic link is followed (the
-// lexical check of check_resolvable is not enough: a link inside the directory may point anywhere).
+// lexical check of check_resolvable is not enough: a link inside the directory may point anywhere). A link
+// whose target is missing is refused too: weakly_canonical keeps it as a plain name, while GDAL reads a
+// relative target against the server's working directory.
 void check_contained(const json& scene, const std::string& path, const Limits& limits) {
   namespace fs = std::filesystem;
   for (const auto& [field, value] : scene_files(scene, path)) {
@@ -236,11 +238,19 @@ void check_contained(const json& scene, const std::string& path, const Limits& l
     std::error_code ec;
     const fs::path root =
         fs::weakly_canonical(fs::absolute(limits.scene_dir.empty() ? fs::path(".") : limits.scene_dir), ec);
-    const fs::path file = ec ? fs::path() : fs::weakly_canonical(root / name, ec);
+    bool dangling = false;
+    fs::path prefix;
+    for (const fs::path& part : root / name) {
+      if (ec || dangling) break;
+      prefix /= part;
+      std::error_code lec;
+      if (fs::is_symlink(fs::symlink_status(prefix, lec))) dangling = !fs::exists(prefix, lec);
+    }
+    const fs::path file = ec || dangling ? fs::path() : fs::weakly_canonical(root / name, ec);
     const fs::path rel = file.lexically_relative(root);
     if (ec || rel.empty() || *rel.begin() == ".." || rel == ".")
       throw ApiError(422, field, "'" + name.substr(0, 80) + "' resolves outside the service's scene directory (symbolic "
-                                 "links followed) (accepted: a file inside --scene-dir)");
+                                 "links followed; a link's target must exist) (accepted: a file inside --scene-dir)");
   }
 }
 

@@ -12,6 +12,62 @@
 
 namespace runout::service {
 
+namespace {
+
+// A route's pattern ("^/api/v1/jobs/(\d{1,18})/series/(.+)\.csv$") or an OpenAPI path ("/jobs/{id}/series/{name}.csv")
+// as one template with anonymous parameters: "/jobs/{}/series/{}.csv".
+std::string route_template(const std::string& pattern) {
+  std::string t;
+  int depth = 0;
+  for (size_t i = kPrefix.size() + 1; i + 1 < pattern.size(); ++i) {  // without "^", the prefix and "$"
+    const char c = pattern[i];
+    if (c == '\\') {
+      if (depth == 0) t += pattern[i + 1];
+      ++i;
+    } else if (c == '(') {
+      if (depth++ == 0) t += "{}";
+    } else if (c == ')') {
+      --depth;
+    } else if (depth == 0) {
+      t += c;
+    }
+  }
+  return t;
+}
+
+std::string openapi_template(const std::string& path) {
+  static const std::regex param(R"(\{[^}]*\})");
+  return std::regex_replace(path, param, "{}");
+}
+
+// The route table is the one list of the API's paths and methods: the OpenAPI document must describe exactly
+// these, or the server does not start (so every service test checks it).
+void check_routes_against_openapi(const std::vector<Route>& routes) {
+  std::map<std::string, std::set<std::string>> table, doc;
+  for (const Route& r : routes)
+    for (const auto& [method, handler] : r.methods) {
+      std::string m = method;
+      std::transform(m.begin(), m.end(), m.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+      table[route_template(r.text)].insert(m);
+    }
+  const json d = json::parse(openapi_json());
+  for (const auto& [path, item] : d.at("paths").items())
+    for (const auto& [key, op] : item.items())
+      if (std::set<std::string>{"get", "put", "post", "delete", "patch", "head", "options"}.count(key))
+        doc[openapi_template(path)].insert(key);
+  if (table == doc) return;
+  std::string diff;
+  for (const auto& [t, ms] : table)
+    for (const auto& m : ms)
+      if (!doc.count(t) || !doc.at(t).count(m)) diff += " " + m + " " + t + " (routed, not documented);";
+  for (const auto& [t, ms] : doc)
+    for (const auto& m : ms)
+      if (!table.count(t) || !table.at(t).count(m)) diff += " " + m + " " + t + " (documented, not routed);";
+  throw std::logic_error("service/openapi.json and the route table differ:" + diff);
+}
+
+}  // namespace
+
 void Server::Impl::setup_routes() {
   routes_health();
   routes_scenes();
@@ -21,6 +77,7 @@ void Server::Impl::setup_routes() {
   routes_results();
   routes_maps();
   routes_compare();
+  check_routes_against_openapi(routes);
 }
 
 void Server::Impl::serve_web(const httplib::Request& req, httplib::Response& res) const {
