@@ -158,7 +158,9 @@ Refusal refusal_for(const boost::system::error_code& ec, bool head_read, bool la
     return {400, "Transfer-Encoding", "repeated or given with Content-Length (accepted: one of the two)"};
   if (ec == http::error::bad_chunk || ec == http::error::bad_chunk_extension)
     return {400, "(body)", "malformed chunk (accepted: hexadecimal size, extensions of at most 1024 bytes)"};
-  if (ec == http::error::bad_method || ec == http::error::bad_target || ec == http::error::bad_version)
+  if (ec == http::error::bad_version)  // Beast's parser refuses any version but 1.0 and 1.1 (HTTP/2.0 included)
+    return {505, "(request)", "unsupported or malformed protocol version (accepted: HTTP/1.1 or HTTP/1.0)"};
+  if (ec == http::error::bad_method || ec == http::error::bad_target)
     return {400, "(request)", "malformed request line (accepted: METHOD SP target SP HTTP/1.1, tokens and visible characters)"};
   if (ec.category() == http::make_error_code(http::error::bad_field).category() && ec != http::error::end_of_stream &&
       ec != http::error::partial_message && ec != http::error::need_more)
