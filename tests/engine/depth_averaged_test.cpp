@@ -23,6 +23,8 @@
 //         model throws SimulationError on one).
 //     Result of the first run (dp 0.5 / 0.25 / 0.125 m): E_h 0.147 / 0.143 / 0.108, E_u 0.127 / 0.154 / 0.133:
 //     A1 and A2 fail; kept as the known failure DISABLED_SquareLatticeConvergesToTheFaccanoniMangeneySolution.
+//     (The neighbour search's image shifts, added for (a''), change the rounding of a disordered flow: the
+//     same case now gives E_h 0.147 / 0.144 / 0.103, E_u 0.127 / 0.149 / 0.130.)
 //     Why: in a periodic strip the particles stay in rows dp apart across and spread only along the slope, so
 //     where h < h0 / smoothing_ratio the rows lose their neighbours along the slope (an isolated row's SPH
 //     thickness is about 0.5 h0 at 1.5 dp): the thin part of the rarefaction and the front (analytic front
@@ -37,6 +39,21 @@
 //     DISABLED_ShearedLatticeConvergesToTheFaccanoniMangeneySolution. Why: the thin front still separates into
 //     particles whose SPH thickness is their own kernel's (V W(0) cos = 0.25 h0 at h_k = 1.5 dp): the front
 //     stops near s = 18 m (analytic 32 m), and with h_k / dp fixed that floor does not fall as dp does.
+//     (a) and (a') run with a fixed smoothing length (Config::adaptive_smoothing = false), as declared.
+// (a'') Declared after (a')'s run, before any run of it: (a') with the adaptive smoothing length added to the
+//     model after it (Config::adaptive_smoothing, now the default: h_k,i = 1.5 sqrt(V_i / rho_i), between
+//     1.5 dp and 4 x that), so a thinning particle keeps its neighbours (as in shallow-water SPH, Vacondio et al.
+//     2012). Same aims A1, A2, A3, norms, window, time, resolutions and sheared 5 m strip.
+//     Result of its first run: E_h 0.0375 / 0.0359 / 0.0366, E_u 0.0478 / 0.0491 / 0.0484: A1 holds at every
+//     resolution, A2 fails (order 0.02 and -0.01); kept as the known failure
+//     DISABLED_AdaptiveSmoothingConvergesToTheFaccanoniMangeneySolution. Why: the error sits in the thin front
+//     (computed front near 25 m, analytic 32 m; the layer behind it too thick), where the kernel has reached
+//     its cap 4 h_k0 and its thickness floor (a row of particles dp apart across: 0.74 dp / (4 h_k0) h0 =
+//     0.12 h0) is again fixed by h_k0 / dp, not by dp.
+// (a''') Declared after (a'')'s run, before any run of it: (a'') on the convergence path of SPH itself, the
+//     kernel shrinking more slowly than the spacing so that the neighbours per kernel grow (as AvaFrame's
+//     com1DFA refines: particles per kernel radius growing as the kernel radius falls): h_k0 = 0.75 m
+//     (dp / 0.5 m)^(1/2), i.e. smoothing ratio 1.5, 2.12, 3 at dp = 0.5, 0.25, 0.125 m. Same aims A1, A2, A3.
 // (b) A uniform sheet (doubly periodic, 12 x 12 particles) on a plane with Coulomb friction mu:
 //     B1: tan(theta) < mu (theta = 20 deg, mu = 0.5): at rest after 2 s, exactly (speed 0, no displacement):
 //         the friction limiter stops a particle whose friction impulse exceeds its momentum.
@@ -106,7 +123,8 @@ struct DamBreakErrors {
 };
 
 // sheared: rows across a 5 m strip, row j offset by (j / rows - 1/2) dp (a'); else 10 rows of a square lattice (a).
-DamBreakErrors run_dam_break(real dp, bool sheared) {
+// refine_kernel: smoothing ratio 1.5 (0.5 m / dp)^(1/2) (a'''); else 1.5.
+DamBreakErrors run_dam_break(real dp, bool sheared, bool adaptive, bool refine_kernel = false) {
   const real theta = deg(22), delta = deg(21), h0 = 1.0, length = 40.0, t_end = 5.0;
   const real c = std::cos(theta);
   const int rows = sheared ? static_cast<int>(std::lround(5.0 / dp)) : 10;
@@ -114,6 +132,8 @@ DamBreakErrors run_dam_break(real dp, bool sheared) {
   da::Config cfg;
   cfg.gravity = kG;
   cfg.spacing = dp;
+  cfg.adaptive_smoothing = adaptive;
+  cfg.smoothing_ratio = refine_kernel ? 1.5 * std::sqrt(0.5 / dp) : 1.5;
   cfg.friction = "coulomb";
   cfg.friction_parameters = {{"mu", std::tan(delta)}};
   cfg.periodic = {false, true};
@@ -147,13 +167,13 @@ DamBreakErrors run_dam_break(real dp, bool sheared) {
   return {eh, std::sqrt(unum / uden), p.size(), model.steps()};
 }
 
-void expect_dam_break_converges(bool sheared) {
+void expect_dam_break_converges(bool sheared, bool adaptive, bool refine_kernel = false) {
   const std::vector<real> spacings = {0.5, 0.25, 0.125};
   std::vector<DamBreakErrors> e;
   for (real dp : spacings) {
-    e.push_back(run_dam_break(dp, sheared));
-    std::printf("dam break (%s) dp = %.3f m: %zu particles, %zu steps, E_h = %.4f, E_u = %.4f\n",
-                sheared ? "sheared" : "square", dp, e.back().particles, e.back().steps, e.back().eh, e.back().eu);
+    e.push_back(run_dam_break(dp, sheared, adaptive, refine_kernel));
+    std::printf("dam break (%s, %s h_k%s) dp = %.3f m: %zu particles, %zu steps, E_h = %.4f, E_u = %.4f\n",
+                sheared ? "sheared" : "square", adaptive ? "adaptive" : "fixed", refine_kernel ? ", refined" : "", dp, e.back().particles, e.back().steps, e.back().eh, e.back().eu);
   }
   for (size_t k = 0; k < e.size(); ++k) {
     EXPECT_LE(e[k].eh, 0.05) << "A1: E_h at dp = " << spacings[k];
@@ -171,12 +191,22 @@ void expect_dam_break_converges(bool sheared) {
 
 // (a): the known failure (rows lose their neighbours along the slope where the flow thins).
 TEST(DepthAveragedDamBreak, DISABLED_SquareLatticeConvergesToTheFaccanoniMangeneySolution) {
-  expect_dam_break_converges(false);
+  expect_dam_break_converges(false, false);
 }
 
 // (a'): the known failure (the thin front below a particle's own thickness floor).
 TEST(DepthAveragedDamBreak, DISABLED_ShearedLatticeConvergesToTheFaccanoniMangeneySolution) {
-  expect_dam_break_converges(true);
+  expect_dam_break_converges(true, false);
+}
+
+// (a''): the known failure (A1 holds; the thin front's floor keeps the error from falling).
+TEST(DepthAveragedDamBreak, DISABLED_AdaptiveSmoothingConvergesToTheFaccanoniMangeneySolution) {
+  expect_dam_break_converges(true, true);
+}
+
+// (a''')
+TEST(DepthAveragedDamBreak, ConvergesToTheFaccanoniMangeneySolutionAsTheKernelShrinks) {
+  expect_dam_break_converges(true, true, true);
 }
 
 // ---- (b) sheets -------------------------------------------------------------------------------------------

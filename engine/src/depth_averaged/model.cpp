@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
+#include <type_traits>
 
 #include "neighbours.hpp"
 #include "runout/engine/depth_averaged.hpp"
@@ -31,37 +32,47 @@ void permute(std::vector<T>& v, const std::vector<uint32_t>& order, std::vector<
   v.swap(buf);
 }
 
-// The volume density in plan, sum_j V_j W_ij, and its plan gradient G_i = sum_j V_j grad_i W_ij, over the
-// cells (each particle's nine cells; self included in the sum, not in the gradient).
+// The volume density in plan, rho_i = sum_j V_j W(r_ij, h_k,i), and its plan gradient G_i = sum_j V_j grad_i
+// W(r_ij, h_k,i): a gather with the particle's own kernel (self included in rho, not in G), over the cells its
+// support reaches. One kernel per particle, so a particle with a wide kernel costs more and the rest nothing.
 template <class K>
-void density_pass(const K& kernel, const detail::PlanCells& cells, const Particles& p, std::vector<real>& sum,
-                  std::vector<real>& gx, std::vector<real>& gy) {
-  const real support2 = kernel.support() * kernel.support();
+void density_pass(const detail::PlanCells& cells, const Particles& p, std::vector<real>& rho, std::vector<real>& gx,
+                  std::vector<real>& gy) {
   const size_t ncell = cells.keys.size();
-#pragma omp parallel for schedule(dynamic, 16)
-  for (size_t c = 0; c < ncell; ++c) {
-    std::array<std::pair<uint32_t, uint32_t>, 9> ranges;
-    const uint32_t i0 = cells.begin[c];
-    const int64_t cx = cells.coord(p.x[i0], 0), cy = cells.coord(p.y[i0], 1);
-    const int m = cells.neighbour_ranges(cx, cy, ranges);
-    for (uint32_t i = i0; i < cells.begin[c + 1]; ++i) {
-      real s = 0, sx = 0, sy = 0;
-      for (int r = 0; r < m; ++r)
-        for (uint32_t j = ranges[r].first; j < ranges[r].second; ++j) {
-          const Vec2 d = cells.separation(p.x[i] - p.x[j], p.y[i] - p.y[j]);
-          const real r2 = d.squaredNorm();
-          if (r2 >= support2) continue;
-          const real rr = std::sqrt(r2);
-          s += p.volume[j] * kernel.W(rr);
-          if (rr > 0) {
-            const real f = p.volume[j] * kernel.grad_factor(rr);
-            sx += f * d.x();
-            sy += f * d.y();
-          }
+#pragma omp parallel
+  {
+    std::vector<detail::PlanCells::Range> ranges;
+#pragma omp for schedule(dynamic, 16)
+    for (size_t c = 0; c < ncell; ++c) {
+      const uint32_t i0 = cells.begin[c];
+      const int64_t cx = cells.coord(p.x[i0], 0), cy = cells.coord(p.y[i0], 1);
+      real reach_for = -1;  // the support the ranges were gathered for (particles of a cell mostly share it)
+      for (uint32_t i = i0; i < cells.begin[c + 1]; ++i) {
+        const K kernel(p.smoothing[i]);
+        const real support = kernel.support(), support2 = support * support;
+        if (support > reach_for) {
+          cells.neighbour_ranges(cx, cy, cells.reach(support, 0), cells.reach(support, 1), ranges);
+          reach_for = cells.reach(support, 0) * cells.cell[0];
+          reach_for = std::min(reach_for, cells.reach(support, 1) * cells.cell[1]);
         }
-      sum[i] = s;
-      gx[i] = sx;
-      gy[i] = sy;
+        real s = 0, sx = 0, sy = 0;
+        for (const auto& r : ranges)
+          for (uint32_t j = r.begin; j < r.end; ++j) {
+            const real dx = p.x[i] - p.x[j] - r.sx, dy = p.y[i] - p.y[j] - r.sy;
+            const real r2 = dx * dx + dy * dy;
+            if (r2 >= support2) continue;
+            const real rr = std::sqrt(r2);
+            s += p.volume[j] * kernel.W(rr);
+            if (rr > 0) {
+              const real f = p.volume[j] * kernel.grad_factor(rr);
+              sx += f * dx;
+              sy += f * dy;
+            }
+          }
+        rho[i] = s;
+        gx[i] = sx;
+        gy[i] = sy;
+      }
     }
   }
 }
@@ -88,7 +99,7 @@ const std::vector<ParameterSpec>& config_parameters() {
 
 void Particles::add(real px, real py, real vol) {
   x.push_back(px), y.push_back(py), volume.push_back(vol);
-  ux.push_back(0), uy.push_back(0), uz.push_back(0), h.push_back(0);
+  ux.push_back(0), uy.push_back(0), uz.push_back(0), h.push_back(0), smoothing.push_back(0);
   id.push_back(static_cast<uint32_t>(id.size()));
 }
 
@@ -97,13 +108,15 @@ Model::Model(const Config& config, Bed bed, Particles particles)
   if (!(config_.spacing > 0)) throw std::invalid_argument("depth_averaged: spacing must be positive");
   friction_ = make_friction(config_.friction, config_.friction_parameters, config_.gravity);
   h_kernel_ = config_.smoothing_ratio * config_.spacing;
-  const real support = 2.0 * h_kernel_;
+  if (!(config_.smoothing_ratio > 0) || !(config_.max_smoothing_growth >= 1))
+    throw std::invalid_argument("depth_averaged: smoothing_ratio must be positive, max_smoothing_growth at least 1");
   for (int d = 0; d < 2; ++d)
-    if (config_.periodic[d] && config_.domain_max[d] - config_.domain_min[d] < 3.0 * support)
-      throw std::invalid_argument("depth_averaged: a periodic axis must span three kernel supports");
-  impl_->cells.configure(support, config_);
+    if (config_.periodic[d] && !(config_.domain_max[d] > config_.domain_min[d]))
+      throw std::invalid_argument("depth_averaged: a periodic axis needs domain_max > domain_min");
+  impl_->cells.configure(2.0 * h_kernel_, config_);
   const size_t n = p_.size();
   p_.h.resize(n), p_.ux.resize(n), p_.uy.resize(n), p_.uz.resize(n);
+  p_.smoothing.assign(n, h_kernel_);
   if (p_.id.size() != n) {
     p_.id.resize(n);
     for (size_t i = 0; i < n; ++i) p_.id[i] = static_cast<uint32_t>(i);
@@ -111,6 +124,7 @@ Model::Model(const Config& config, Bed bed, Particles particles)
   for (size_t i = 0; i < n; ++i)
     for (int d = 0; d < 2; ++d) (d == 0 ? p_.x : p_.y)[i] = impl_->cells.wrap((d == 0 ? p_.x : p_.y)[i], d);
   refresh();
+  if (config_.adaptive_smoothing) refresh();  // the smoothing lengths of the initial thickness
 }
 
 Model::~Model() = default;
@@ -122,37 +136,54 @@ real Model::total_volume() const {
   return v;
 }
 
-// Sorts the particles by cell and computes the thickness h_i = cos(theta_i) sum_j V_j W_ij and G_i, so the
-// state is consistent after every public call.
+// Sorts the particles by cell and computes the thickness h_i = cos(theta_i) rho_i and G_i, so the state is
+// consistent after every public call. The adaptive smoothing length is set from the last step's thickness
+// first (one explicit update per step, not iterated).
 void Model::refresh() {
   auto& I = *impl_;
+  const size_t n = p_.size();
+  if (config_.adaptive_smoothing && I.bed.size() == n) {
+    const real hi = config_.max_smoothing_growth * h_kernel_;
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; ++i) {
+      const real rho = p_.h[i] / I.bed[i].cos_slope();
+      p_.smoothing[i] = std::clamp(config_.smoothing_ratio * std::sqrt(p_.volume[i] / rho), h_kernel_, hi);
+    }
+  }
   I.cells.sort(p_.x, p_.y);
   std::vector<real> rbuf;
   std::vector<uint32_t> ibuf;
-  for (auto* v : {&p_.x, &p_.y, &p_.volume, &p_.ux, &p_.uy, &p_.uz}) permute(*v, I.cells.order, rbuf);
+  for (auto* v : {&p_.x, &p_.y, &p_.volume, &p_.ux, &p_.uy, &p_.uz, &p_.smoothing}) permute(*v, I.cells.order, rbuf);
   permute(p_.id, I.cells.order, ibuf);
-  const size_t n = p_.size();
   I.gx.resize(n), I.gy.resize(n), I.bed.resize(n);
-  with_kernel<2>(config_.kernel, h_kernel_,
-                 [&](const auto& k) { density_pass(k, I.cells, p_, p_.h, I.gx, I.gy); });
-#pragma omp parallel for schedule(static)
+  with_kernel<2>(config_.kernel, h_kernel_, [&](const auto& k) {
+    density_pass<std::decay_t<decltype(k)>>(I.cells, p_, p_.h, I.gx, I.gy);
+  });
+  real hk_max = h_kernel_;
+#pragma omp parallel for schedule(static) reduction(max : hk_max)
   for (size_t i = 0; i < n; ++i) {
     I.bed[i] = bed_.sample(p_.x[i], p_.y[i]);
     p_.h[i] *= I.bed[i].cos_slope();
+    hk_max = std::max(hk_max, p_.smoothing[i]);
   }
+  h_kernel_max_ = hk_max;
 }
 
 real Model::thickness_at(real x, real y) const {
   const auto& cells = impl_->cells;
   x = cells.wrap(x, 0), y = cells.wrap(y, 1);
-  std::array<std::pair<uint32_t, uint32_t>, 9> ranges;
-  const int64_t cx = cells.coord(x, 0), cy = cells.coord(y, 1);
-  const int m = cells.neighbour_ranges(cx, cy, ranges);
-  return with_kernel<2>(config_.kernel, h_kernel_, [&](const auto& k) {
+  std::vector<detail::PlanCells::Range> ranges;
+  const real support = 2.0 * h_kernel_max_;
+  cells.neighbour_ranges(cells.coord(x, 0), cells.coord(y, 1), cells.reach(support, 0), cells.reach(support, 1),
+                         ranges);
+  return with_kernel<2>(config_.kernel, h_kernel_, [&](const auto& k0) {
+    using K = std::decay_t<decltype(k0)>;
     real s = 0;
-    for (int r = 0; r < m; ++r)
-      for (uint32_t j = ranges[r].first; j < ranges[r].second; ++j)
-        s += p_.volume[j] * k.W(cells.separation(x - p_.x[j], y - p_.y[j]).norm());
+    for (const auto& r : ranges)
+      for (uint32_t j = r.begin; j < r.end; ++j) {
+        const real dx = x - p_.x[j] - r.sx, dy = y - p_.y[j] - r.sy;
+        s += p_.volume[j] * K(p_.smoothing[j]).W(std::sqrt(dx * dx + dy * dy));
+      }
     return s * bed_.sample(x, y).cos_slope();
   });
 }

@@ -22,14 +22,15 @@ struct PlanCells {
   std::vector<uint32_t> begin;   // particle range of keys[c]: [begin[c], begin[c + 1])
   std::vector<uint32_t> order;   // the sort's permutation: new position k holds old particle order[k]
 
-  // Cell axes: at least `support` wide; a periodic axis splits its period into whole cells (at least three,
-  // so a neighbour cell is never counted twice).
+  // Cells `support` wide (the base kernel's); a periodic axis splits its period into whole cells. A particle
+  // whose kernel is wider searches more cells (`reach`); a periodic axis gives each cell an image shift, so a
+  // kernel wider than the period sums every image.
   void configure(real support, const Config& c) {
     for (int d = 0; d < 2; ++d) {
       periodic[d] = c.periodic[d];
       if (periodic[d]) {
         period[d] = c.domain_max[d] - c.domain_min[d];
-        count[d] = static_cast<int64_t>(std::floor(period[d] / support));
+        count[d] = std::max<int64_t>(1, static_cast<int64_t>(std::floor(period[d] / support)));
         cell[d] = period[d] / static_cast<real>(count[d]);
         origin[d] = c.domain_min[d];
       } else {
@@ -37,6 +38,9 @@ struct PlanCells {
       }
     }
   }
+
+  // Cells each way along axis d that a kernel of support `s` needs.
+  int64_t reach(real s, int d) const { return std::max<int64_t>(1, static_cast<int64_t>(std::ceil(s / cell[d]))); }
 
   int64_t coord(real x, int d) const {
     const int64_t k = static_cast<int64_t>(std::floor((x - origin[d]) / cell[d]));
@@ -71,33 +75,36 @@ struct PlanCells {
     begin.push_back(static_cast<uint32_t>(n));
   }
 
-  // The particle ranges of the (up to) nine cells around cell (cx, cy); returns how many.
-  int neighbour_ranges(int64_t cx, int64_t cy, std::array<std::pair<uint32_t, uint32_t>, 9>& out) const {
-    int m = 0;
-    for (int oy = -1; oy <= 1; ++oy)
-      for (int ox = -1; ox <= 1; ++ox) {
+  struct Range {
+    uint32_t begin, end;
+    real sx, sy;  // image shift: the neighbour sits at (x_j + sx, y_j + sy)
+  };
+  // The particle ranges of the cells within (kx, ky) cells of cell (cx, cy), with their image shifts.
+  void neighbour_ranges(int64_t cx, int64_t cy, int64_t kx, int64_t ky, std::vector<Range>& out) const {
+    out.clear();
+    for (int64_t oy = -ky; oy <= ky; ++oy)
+      for (int64_t ox = -kx; ox <= kx; ++ox) {
         int64_t c[2] = {cx + ox, cy + oy};
+        real shift[2] = {0, 0};
         bool inside = true;
         for (int d = 0; d < 2; ++d) {
-          if (periodic[d]) c[d] = (c[d] + count[d]) % count[d];
-          else if (c[d] < 0 || c[d] >= count[d]) inside = false;
+          if (periodic[d]) {
+            const int64_t w = c[d] >= 0 ? c[d] / count[d] : -((-c[d] + count[d] - 1) / count[d]);  // floor division
+            c[d] -= w * count[d];
+            shift[d] = static_cast<real>(w) * period[d];
+          } else if (c[d] < 0 || c[d] >= count[d]) {
+            inside = false;
+          }
         }
         if (!inside) continue;
         const uint64_t k = key(c[0], c[1]);
         const auto it = std::lower_bound(keys.begin(), keys.end(), k);
         if (it == keys.end() || *it != k) continue;
         const size_t ci = static_cast<size_t>(it - keys.begin());
-        out[m++] = {begin[ci], begin[ci + 1]};
+        out.push_back({begin[ci], begin[ci + 1], shift[0], shift[1]});
       }
-    return m;
   }
 
-  // The separation x_i - x_j on the periodic axes' nearest image.
-  Vec2 separation(real dx, real dy) const {
-    if (periodic[0]) dx -= period[0] * std::round(dx / period[0]);
-    if (periodic[1]) dy -= period[1] * std::round(dy / period[1]);
-    return Vec2(dx, dy);
-  }
   // A position wrapped into a periodic axis' period.
   real wrap(real x, int d) const {
     if (!periodic[d]) return x;

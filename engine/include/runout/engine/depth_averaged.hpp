@@ -88,13 +88,19 @@ struct Config {
   real earth_pressure = 1.0;               // k: pressure term -k g_n grad h (1: hydrostatic, isotropic)
   real spacing = 1.0;                      // initial plan spacing of the particles [m]
   real smoothing_ratio = 1.5;              // kernel smoothing length / spacing (support 2 h_k)
+  // Adaptive smoothing length: h_k,i = smoothing_ratio sqrt(V_i / rho_i) (rho_i the volume per plan area),
+  // between the initial h_k0 = smoothing_ratio spacing and max_smoothing_growth h_k0, so a thinning flow keeps
+  // its neighbours; false: h_k0 for every particle.
+  bool adaptive_smoothing = true;
+  real max_smoothing_growth = 4.0;
   KernelKind kernel = KernelKind::wendland;
   real cfl = 0.2;                          // dt <= cfl h_k / max(sqrt(k g_n h) + |u|)
   real dt_max = 0.1;                       // [s]
   bool curvature = true;                   // add the centripetal load u^T H u cos(theta) to the normal stress
   std::string friction = "coulomb";
   ParameterValues friction_parameters;
-  // Periodic plan axes (x, y) over [domain_min, domain_max): for test sheets and strips on a plane.
+  // Periodic plan axes (x, y) over [domain_min, domain_max): for test sheets and strips on a plane (a period
+  // shorter than a kernel's support sums every image).
   std::array<bool, 2> periodic{false, false};
   Vec2 domain_min = Vec2::Zero(), domain_max = Vec2::Zero();
 };
@@ -108,6 +114,7 @@ struct Particles {
   std::vector<real> volume;        // fixed [m^3]
   std::vector<real> ux, uy, uz;    // depth-averaged velocity, tangent to the bed [m/s]
   std::vector<real> h;             // flow thickness normal to the bed, from the last step [m]
+  std::vector<real> smoothing;     // the particle's kernel smoothing length h_k,i [m]
   std::vector<uint32_t> id;
   size_t size() const { return x.size(); }
   // Appends a particle at rest (velocity set to zero; thickness filled by the model).
@@ -116,8 +123,8 @@ struct Particles {
 
 class Model {
  public:
-  // Throws std::invalid_argument for a bad friction name or parameter, a non-positive spacing, or a periodic
-  // axis narrower than three kernel supports.
+  // Throws std::invalid_argument for a bad friction name or parameter, a non-positive spacing or smoothing
+  // settings out of range.
   Model(const Config& config, Bed bed, Particles particles);
   ~Model();
   Model(Model&&) noexcept;
@@ -131,10 +138,12 @@ class Model {
   const Particles& particles() const { return p_; }
   const Config& config() const { return config_; }
   const Bed& bed() const { return bed_; }
+  // The initial (smallest) kernel smoothing length h_k0 = smoothing_ratio spacing.
   real smoothing_length() const { return h_kernel_; }
   // Sum of the particles' volumes (constant: particles carry fixed volume).
   real total_volume() const;
-  // The SPH thickness at any plan point: cos(theta) sum_j V_j W(|x - x_j|).
+  // The SPH thickness at any plan point, each particle spreading its volume with its own kernel:
+  // cos(theta) sum_j V_j W(|x - x_j|, h_k,j) (its plan integral is the total volume).
   real thickness_at(real x, real y) const;
 
  private:
@@ -148,6 +157,7 @@ class Model {
   Bed bed_;
   Particles p_;
   real h_kernel_ = 0;
+  real h_kernel_max_ = 0;  // the largest h_k,i now (thickness_at's search)
   real time_ = 0;
   size_t steps_ = 0;
   std::unique_ptr<BasalFriction> friction_;
