@@ -71,6 +71,12 @@
 //         failure DISABLED_StoppingSheetTravelsWithinOnePercent: symplectic Euler's positions are first order.)
 //     B4: Voellmy (mu = 0.155, xi = 500 m/s^2, h0 = 1 m, theta = 30 deg): after 30 s (eight time constants)
 //         the speed within 1 % of the uniform-flow speed sqrt(xi h0 (sin - mu cos)).
+// (d) Declared with this case, before its first run: a 10 m x 10 m x 2 m pile (dp = 0.5 m) released into a
+//     valley given as a DEM grid (2 m nodes; z = -tan(25 deg) x + 0.02 y^2, curvature across), Voellmy
+//     (mu = 0.2, xi = 500 m/s^2), 10 s: no non-finite value; volume constant to 1e-12 relative; the centre of
+//     mass on the valley axis within 0.05 m (1 % of the release's half-width: the case is symmetric); and the
+//     energy bound: the mean kinetic energy per unit mass at most g (the drop of the mean bed elevation under
+//     the particles) + g h0 / 2 (the column's own potential), since friction only takes energy out.
 // (c) Thickness of a uniform lattice within 1 % of h0 (the kernel's zeroth moment on a lattice at 1.5 dp);
 //     the bed's grid form reproduces a plane's gradient exactly and a paraboloid's curvature; unknown friction
 //     names and out-of-range parameters are refused.
@@ -340,6 +346,53 @@ TEST(DepthAveragedSheet, VoellmyReachesTheUniformFlowSpeed) {
   mean /= static_cast<real>(m.particles().size());
   std::printf("Voellmy uniform-flow speed %.4f m/s (analytic %.4f)\n", mean, expected);
   EXPECT_NEAR(mean, expected, 0.01 * expected) << "B4";
+}
+
+// ---- (d) a pile in a DEM valley ------------------------------------------------------------------------
+
+TEST(DepthAveragedTerrain, PileInADemValleyStaysFiniteConservesVolumeAndObeysTheEnergyBound) {
+  const real tn = std::tan(deg(25)), h0 = 2.0, dp = 0.5;
+  const int nx = 71, ny = 41;  // x in [-20, 120] m, y in [-40, 40] m
+  std::vector<real> z;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const real x = -20.0 + 2.0 * i, y = -40.0 + 2.0 * j;
+      z.push_back(-tn * x + 0.02 * y * y);
+    }
+  const da::Bed bed = da::Bed::grid(-20, -40, 2, 2, nx, ny, z);
+  da::Particles p;
+  for (int j = 0; j < 20; ++j)
+    for (int i = 0; i < 20; ++i) {
+      const real x = (i + 0.5) * dp, y = -5.0 + (j + 0.5) * dp;
+      p.add(x, y, h0 * dp * dp / bed.sample(x, y).cos_slope());
+    }
+  da::Config cfg;
+  cfg.spacing = dp;
+  cfg.friction = "voellmy";
+  cfg.friction_parameters = {{"mu", 0.2}, {"xi", 500.0}};
+  auto mean_z = [&](const da::Model& m) {
+    real s = 0;
+    for (size_t i = 0; i < m.particles().size(); ++i) s += bed.sample(m.particles().x[i], m.particles().y[i]).z;
+    return s / static_cast<real>(m.particles().size());
+  };
+  da::Model m(cfg, bed, p);
+  const real v0 = m.total_volume(), z0 = mean_z(m);
+  ASSERT_NO_THROW(m.advance_to(10.0));
+  EXPECT_NEAR(m.total_volume(), v0, 1e-12 * v0);
+  const auto& q = m.particles();
+  real xm = 0, ym = 0, ke = 0;
+  for (size_t i = 0; i < q.size(); ++i) {
+    xm += q.x[i], ym += q.y[i];
+    ke += 0.5 * (q.ux[i] * q.ux[i] + q.uy[i] * q.uy[i] + q.uz[i] * q.uz[i]);
+  }
+  const real n = static_cast<real>(q.size());
+  xm /= n, ym /= n, ke /= n;
+  const real bound = kG * (z0 - mean_z(m)) + kG * h0 / 2;
+  std::printf("valley: centre of mass (%.3f, %.4f) m, kinetic energy %.2f J/kg, bound %.2f J/kg, %zu steps\n", xm, ym,
+              ke, bound, m.steps());
+  EXPECT_NEAR(ym, 0.0, 0.05);
+  EXPECT_LE(ke, bound);
+  EXPECT_GT(xm, 5.0);  // it moved down the valley at all
 }
 
 // ---- (c) pieces -------------------------------------------------------------------------------------------
