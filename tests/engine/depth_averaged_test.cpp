@@ -276,6 +276,8 @@ void expect_rigid_block(const da::Bed& bed, real theta, real phi) {
     travel += (dx * std::cos(phi) + dy * std::sin(phi)) / c;
   }
   travel /= static_cast<real>(p.size());
+  std::printf("rigid block: speed %.6f m/s (a t %.6f), travel %.4f m (a t^2/2 %.4f), %zu steps\n",
+              (p.ux[0] * std::cos(phi) + p.uy[0] * std::sin(phi)) / c, a * t, travel, a * t * t / 2, m.steps());
   EXPECT_GT(m.steps(), 100u) << "B2: the declared number of steps";
   EXPECT_NEAR(travel, a * t * t / 2, 0.01 * a * t * t / 2) << "B2: travel after " << m.steps() << " steps";
 }
@@ -402,6 +404,7 @@ TEST(DepthAveragedPieces, LatticeThicknessIsTheReleaseThickness) {
   Sheet sheet("coulomb", {{"mu", 1.0}});
   da::Model m = sheet.make(da::Bed::plane(0, 0, -std::tan(theta)), h0, std::cos(theta));
   for (real h : m.particles().h) EXPECT_NEAR(h, h0, 0.01 * h0);
+  std::printf("lattice thickness %.5f m (h0 %.2f m)\n", m.particles().h[0], h0);
   EXPECT_NEAR(m.thickness_at(1.0, 1.3), h0, 0.01 * h0);
 }
 
