@@ -482,6 +482,29 @@ TEST(DepthAveragedPieces, GridBedReproducesPlaneAndParaboloid) {
   EXPECT_NEAR(f.grad.y(), 0.02 * 9 + 0.06 * 9, 1e-6);
 }
 
+TEST(DepthAveragedPieces, DeclaredParametersMatchTheConfigAndBadSettingsAreRefused) {
+  const da::Config c;
+  const auto& specs = da::config_parameters();
+  EXPECT_EQ(runout::parameter_spec(specs, "earth_pressure").default_value, c.earth_pressure);
+  EXPECT_EQ(runout::parameter_spec(specs, "smoothing_ratio").default_value, c.smoothing_ratio);
+  EXPECT_EQ(runout::parameter_spec(specs, "cfl").default_value, c.cfl);
+  EXPECT_EQ(runout::parameter_spec(specs, "dt_max").default_value, c.dt_max);
+  auto make = [](da::Config cfg) { return da::Model(cfg, da::Bed::plane(0, 0, 0), lattice(0, 0, 2, 2, 1, 1, 1)); };
+  da::Config bad = c;
+  bad.spacing = 0;
+  EXPECT_THROW(make(bad), std::invalid_argument);
+  bad = c;
+  bad.friction = "samosat";
+  EXPECT_THROW(make(bad), std::invalid_argument);
+  bad = c;
+  bad.friction_parameters = {{"mu", -1.0}};
+  EXPECT_THROW(make(bad), std::invalid_argument);
+  bad = c;
+  bad.periodic = {true, false};  // no period given
+  EXPECT_THROW(make(bad), std::invalid_argument);
+  EXPECT_NO_THROW(make(c));
+}
+
 TEST(DepthAveragedPieces, FrictionLawsAreNamedAndChecked) {
   ASSERT_EQ(da::friction_models().size(), 2u);
   EXPECT_EQ(da::friction_model("coulomb").name, "coulomb");
