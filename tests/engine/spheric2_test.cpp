@@ -26,12 +26,16 @@
 //     project's depth-gauge tolerance (the surface is where the interpolated fluid fraction falls to 1/2; the
 //     top row stands anywhere within a spacing of it: docs/validation.md section 6); 10 % the front-speed band
 //     again, now on the discharge that fills and drains the gauges.
-// What holds at this resolution, and is asserted: the six heights of H2 and H4 (item 4) and P2's arrival.
-// What does not is printed with its band and flagged (docs/validation.md section 7 has the numbers): the front
-// reaches the gauges and P1 late (the coarse 3D front is a few particles thick and slower than the
-// experiment's), the impact's 10 ms peaks are 1.5-4 times the measured ones (acoustic spikes of the weakly
-// compressible impact, of order rho c0 u, not averaged out in 10 ms) and the pressure of the water piled against
-// the face is a third of the measured one and swings by several kPa. The tolerances were not moved.
+// What holds at this resolution is asserted (Spheric2Validation.HeightsAndP2ArrivalAgainstKleefsman): the six
+// heights of H2 and H4 (item 4) and P2's arrival. The rest of items 1-3 — P1's arrival, the wetting of the two
+// gauges nearest the gate, P1's and P2's 10 ms peaks and post-impact means — is asserted with the same declared
+// bands in a known failure (DISABLED_PressuresAndArrivalsAgainstKleefsman, ctest WILL_FAIL; docs/validation.md
+// section 7 has the numbers): the front reaches the gauges and P1 late (the coarse 3D front is a few particles
+// thick and slower than the experiment's), the impact's 10 ms peaks are 1.5-4 times the measured ones (acoustic
+// spikes of the weakly compressible impact, of order rho c0 u, not averaged out in 10 ms) and the pressure of the
+// water piled against the face is a third of the measured one and swings by several kPa. The tolerances were not
+// moved. (Issue 42 sets the aim for P1's peak and post-impact pressure at 20 %; the bands here, declared first,
+// are 25 %.) The known failure runs the scene again in its own process (about 200 s on CI's two threads).
 // P3 and P4 and the gauges at x = 0.496 and 1.488 m are printed only: at dp = 0.55/15 the box is laid 4 spacings
 // (0.147 m) high against 0.161 m, P4 (z = 0.141 m) is 6 mm under its top, and the probes' kernel support
 // (2h = 0.11 m) reaches over the top into the overtopping jet from P3 up; the other two gauges' labels are the
@@ -123,36 +127,38 @@ std::pair<double, double> peak_10ms(const Series& s, double lo, double hi) {
   return {best, when};
 }
 
-// An arrival time against its band (header, item 1); asserted only where it holds at this resolution.
-void check_arrival(const std::string& what, double sim, double exp, bool asserted) {
-  const double lead = 0.1 * exp + 0.026, lag = 0.1 * exp;
-  const bool agrees = sim >= exp - lead && sim <= exp + lag;
-  std::printf("  %-30s sim %.3f s, experiment %.3f s: %+.3f s (band -%.3f ... +%.3f)%s\n", what.c_str(), sim, exp,
-              sim - exp, lead, lag, asserted ? "" : agrees ? " [printed: agrees]" : " [printed: DOES NOT AGREE]");
-  if (!asserted) return;
-  EXPECT_GE(sim, exp - lead) << what;
-  EXPECT_LE(sim, exp + lag) << what;
-}
+// An arrival time's band (header, item 1): the simulation may lead by 10 % + 26 ms and lag by 10 %.
+struct Band {
+  double lo, hi;
+};
+Band arrival_band(double exp) { return {exp - (0.1 * exp + 0.026), exp + 0.1 * exp}; }
 
-// A pressure against its relative band (header, items 2 and 3); printed, not asserted, at this resolution.
-void print_relative(const std::string& what, double sim, double exp, double tol) {
-  const bool agrees = std::abs(sim - exp) <= tol * std::abs(exp);
-  std::printf("  %-30s sim %8.1f, experiment %8.1f: %+6.1f %% (band %.0f %%)%s\n", what.c_str(), sim, exp,
-              100 * (sim - exp) / exp, 100 * tol, agrees ? " [printed: agrees]" : " [printed: DOES NOT AGREE]");
-}
+// Everything the header compares, from one run.
+struct Figures {
+  RunSummary run;
+  nlohmann::json metrics;
+  double dp = 0;
+  struct Probe {
+    double arrival_sim, arrival_exp, peak_sim, peak_exp, mean_sim, mean_exp;
+  } probe[4];
+  double wets_1488_sim, wets_1488_exp, wets_0992_sim, wets_0992_exp;
+  struct Height {
+    const char* gauge;
+    double t, sim, exp;
+  };
+  std::vector<Height> heights;  // H1-H4 at 0.5, 1.0, 1.5 s
+};
 
-}  // namespace
-
-TEST(Spheric2Validation, PressuresOnTheBoxAndWaterHeightsAgainstKleefsman) {
+Figures run_and_compare(const std::string& folder) {
+  Figures f;
   const Scene scene = load_scene(RUNOUT_SOURCE_DIR "/scenarios/validation/spheric2_3d.json");
-  const double dp = scene.dp;
-  const std::filesystem::path out = std::filesystem::path(RUNOUT_BINARY_DIR) / "validation" / "spheric2_3d";
+  f.dp = scene.dp;
+  const std::filesystem::path out = std::filesystem::path(RUNOUT_BINARY_DIR) / "validation" / folder;
   RunOptions opt;
   opt.out_dir = out;
-  const RunSummary sum = run_scene(scene, opt);
-  ASSERT_EQ(sum.status, "completed") << sum.error;  // a leak or NaN fails here
-  const auto m = nlohmann::json::parse(sum.metrics_json);
-
+  f.run = run_scene(scene, opt);
+  if (f.run.status != "completed") return f;
+  f.metrics = nlohmann::json::parse(f.run.metrics_json);
   const Table e10 = read_csv(RUNOUT_SOURCE_DIR "/tests/data/spheric2_exp_10ms.csv");
   const Table e1k = read_csv(RUNOUT_SOURCE_DIR "/tests/data/spheric2_exp_impact_1khz.csv");
   const auto sim = [&](const std::string& file, const std::string& col) {
@@ -160,61 +166,86 @@ TEST(Spheric2Validation, PressuresOnTheBoxAndWaterHeightsAgainstKleefsman) {
   };
   const char* probes[] = {"P1", "P2", "P3", "P4"};
   const char* exp_cols[] = {"p1_pa", "p2_pa", "p3_pa", "p4_pa"};
-
-  std::printf("  SPHERIC Test 2 at dp = %.4f m: %ld steps, %.1f s wall, max Mach %.3f\n", dp, sum.steps,
-              sum.wall_seconds, m["max_mach"].get<double>());
+  std::printf("  SPHERIC Test 2 at dp = %.4f m: %ld steps, %.1f s wall, max Mach %.3f\n", f.dp, f.run.steps,
+              f.run.wall_seconds, f.metrics["max_mach"].get<double>());
   for (int k = 0; k < 4; ++k) {
     const double zero = window_mean(column(e10, exp_cols[k]), -1, 0.35);
     const Series ps = sim(std::string("pressure_probe_") + probes[k] + ".csv", "pressure_pa");
     const Series pe = column(e1k, exp_cols[k], zero), pe10 = column(e10, exp_cols[k], zero);
-    const double arr_s = first_over(ps, 1000), arr_e = first_over(pe, 1000);
+    auto& p = f.probe[k];
+    p.arrival_sim = first_over(ps, 1000), p.arrival_exp = first_over(pe, 1000);
     const auto [pk_s, tpk_s] = peak_10ms(ps, 0.0, 0.55);
     const auto [pk_e, tpk_e] = peak_10ms(pe, 0.0, 0.55);
-    const double mean_s = window_mean(ps, 0.495, 0.995), mean_e = window_mean(pe10, 0.495, 0.995);
-    std::printf("  %s: first > 1 kPa sim %.3f / exp %.3f s; 10 ms peak sim %.0f Pa at %.3f s / exp %.0f Pa at %.3f s; "
-                "mean 0.495-0.995 s sim %.0f / exp %.0f Pa; mean 0.995-1.495 s sim %.0f / exp %.0f Pa\n",
-                probes[k], arr_s, arr_e, pk_s, tpk_s, pk_e, tpk_e, mean_s, mean_e, window_mean(ps, 0.995, 1.495),
-                window_mean(pe10, 0.995, 1.495));
-    if (k >= 2) continue;  // P3, P4: printed only (header)
-    const std::string name = probes[k];
-    check_arrival(name + " arrival (> 1 kPa)", arr_s, arr_e, k == 1);
-    print_relative(name + " 10 ms peak [Pa]", pk_s, pk_e, 0.25);
-    print_relative(name + " mean 0.495-0.995 s [Pa]", mean_s, mean_e, 0.25);
+    p.peak_sim = pk_s, p.peak_exp = pk_e;
+    p.mean_sim = window_mean(ps, 0.495, 0.995), p.mean_exp = window_mean(pe10, 0.495, 0.995);
+    std::printf("  %s: first > 1 kPa sim %.3f / exp %.3f s; 10 ms peak sim %.0f Pa at %.3f s / exp %.0f Pa at %.3f s "
+                "(%+.0f %%); mean 0.495-0.995 s sim %.0f / exp %.0f Pa (%+.0f %%); mean 0.995-1.495 s sim %.0f / exp "
+                "%.0f Pa\n", probes[k], p.arrival_sim, p.arrival_exp, pk_s, tpk_s, pk_e, tpk_e,
+                100 * (pk_s / pk_e - 1), p.mean_sim, p.mean_exp, 100 * (p.mean_sim / p.mean_exp - 1),
+                window_mean(ps, 0.995, 1.495), window_mean(pe10, 0.995, 1.495));
   }
-
-  // Wetting of the gauges nearest the gate (> 1 cm).
-  const Series h3s = sim("depth_gauge_H3.csv", "depth_m"), h2s = sim("depth_gauge_H2.csv", "depth_m");
-  check_arrival("x = 1.488 m wets (> 1 cm)", first_over(h3s, 0.01), first_over(column(e1k, "h_x1488_m"), 0.01),
-                false);
-  check_arrival("H2 (x = 0.992 m) wets", first_over(h2s, 0.01), first_over(column(e1k, "h_x0992_m"), 0.01), false);
-
-  // Heights as 10 ms means at 0.5, 1.0, 1.5 s (H2, H4 asserted; x = 0.496 and 1.488 m printed).
+  f.wets_1488_sim = first_over(sim("depth_gauge_H3.csv", "depth_m"), 0.01);
+  f.wets_1488_exp = first_over(column(e1k, "h_x1488_m"), 0.01);
+  f.wets_0992_sim = first_over(sim("depth_gauge_H2.csv", "depth_m"), 0.01);
+  f.wets_0992_exp = first_over(column(e1k, "h_x0992_m"), 0.01);
+  std::printf("  wetting (> 1 cm): x = 1.488 m sim %.3f / exp %.3f s; x = 0.992 m sim %.3f / exp %.3f s\n",
+              f.wets_1488_sim, f.wets_1488_exp, f.wets_0992_sim, f.wets_0992_exp);
   const struct {
     const char* gauge;
     const char* exp_col;
-    bool asserted;
-  } gauges[] = {{"H1", "h_x0496_m", false}, {"H2", "h_x0992_m", true}, {"H3", "h_x1488_m", false},
-                {"H4", "h_x2638_m", true}};
+  } gauges[] = {{"H1", "h_x0496_m"}, {"H2", "h_x0992_m"}, {"H3", "h_x1488_m"}, {"H4", "h_x2638_m"}};
   for (const auto& g : gauges) {
     const Series hs = sim(std::string("depth_gauge_") + g.gauge + ".csv", "depth_m"), he = column(e10, g.exp_col);
     for (double t : {0.5, 1.0, 1.5}) {
-      const double s = window_mean(hs, t - 0.005, t + 0.005), e = window_mean(he, t - 0.005, t + 0.005);
-      const double tol = dp + 0.1 * e;
-      const char* note = g.asserted ? "" : std::abs(s - e) <= tol ? " [printed: agrees]" : " [printed: DOES NOT AGREE]";
-      std::printf("  %s (%s) at %.1f s: sim %.3f m, experiment %.3f m: %+.3f m (band %.3f m)%s\n", g.gauge,
-                  g.exp_col, t, s, e, s - e, tol, note);
-      if (g.asserted) {
-        EXPECT_NEAR(s, e, tol) << g.gauge << " at " << t << " s";
-      }
+      const double hsim = window_mean(hs, t - 0.005, t + 0.005), hexp = window_mean(he, t - 0.005, t + 0.005);
+      f.heights.push_back({g.gauge, t, hsim, hexp});
+      std::printf("  %s (%s) at %.1f s: sim %.3f m, experiment %.3f m: %+.3f m (band %.3f m)\n", g.gauge, g.exp_col,
+                  t, hsim, hexp, hsim - hexp, f.dp + 0.1 * hexp);
     }
   }
-  nlohmann::json box;
-  for (const auto& mon : m["monitors"])
-    if (mon["name"] == "box") box = mon;
-  ASSERT_TRUE(box.is_object()) << "no structure_load 'box' in metrics.json";
-  std::printf("  box load: peak force %.0f N at %.3f s (window %.3f s), peak mean pressure %.0f Pa\n",
-              box["peak_force_n"].get<double>(), box["time_of_peak_force_s"].get<double>(),
-              box["load_window_s"].get<double>(), box["peak_mean_pressure_pa"].get<double>());
-  EXPECT_EQ(m["leaks"].get<int>(), 0);
-  EXPECT_LT(std::abs(m["mass"]["relative_error"].get<double>()), 1e-12);
+  for (const auto& mon : f.metrics["monitors"])
+    if (mon["name"] == "box")
+      std::printf("  box load: peak force %.0f N at %.3f s (window %.3f s), peak mean pressure %.0f Pa\n",
+                  mon["peak_force_n"].get<double>(), mon["time_of_peak_force_s"].get<double>(),
+                  mon["load_window_s"].get<double>(), mon["peak_mean_pressure_pa"].get<double>());
+  return f;
+}
+
+void expect_arrival(const std::string& what, double sim, double exp) {
+  const Band b = arrival_band(exp);
+  EXPECT_GE(sim, b.lo) << what;
+  EXPECT_LE(sim, b.hi) << what;
+}
+
+}  // namespace
+
+// What holds at this resolution: H2 and H4 (the gauges with unambiguous labels), P2's arrival, no leak, mass.
+TEST(Spheric2Validation, HeightsAndP2ArrivalAgainstKleefsman) {
+  const Figures f = run_and_compare("spheric2_3d");
+  ASSERT_EQ(f.run.status, "completed") << f.run.error;  // a leak or NaN fails here
+  expect_arrival("P2 arrival (> 1 kPa)", f.probe[1].arrival_sim, f.probe[1].arrival_exp);
+  for (const auto& h : f.heights)
+    if (std::string(h.gauge) == "H2" || std::string(h.gauge) == "H4") {
+      EXPECT_NEAR(h.sim, h.exp, f.dp + 0.1 * h.exp) << h.gauge << " at " << h.t << " s";
+    }
+  bool box = false;
+  for (const auto& mon : f.metrics["monitors"]) box = box || mon["name"] == "box";
+  EXPECT_TRUE(box) << "no structure_load 'box' in metrics.json";
+  EXPECT_EQ(f.metrics["leaks"].get<int>(), 0);
+  EXPECT_LT(std::abs(f.metrics["mass"]["relative_error"].get<double>()), 1e-12);
+}
+
+// Known failure (tests/CMakeLists.txt, WILL_FAIL): the header's items 1-3 for P1, P2 and the two gauges nearest
+// the gate, with the bands declared before the first comparison.
+TEST(Spheric2Validation, DISABLED_PressuresAndArrivalsAgainstKleefsman) {
+  const Figures f = run_and_compare("spheric2_3d_known_failure");
+  ASSERT_EQ(f.run.status, "completed") << f.run.error;
+  expect_arrival("P1 arrival (> 1 kPa)", f.probe[0].arrival_sim, f.probe[0].arrival_exp);
+  expect_arrival("x = 1.488 m wets (> 1 cm)", f.wets_1488_sim, f.wets_1488_exp);
+  expect_arrival("x = 0.992 m wets (> 1 cm)", f.wets_0992_sim, f.wets_0992_exp);
+  for (int k = 0; k < 2; ++k) {
+    const auto& p = f.probe[k];
+    EXPECT_NEAR(p.peak_sim, p.peak_exp, 0.25 * std::abs(p.peak_exp)) << "P" << k + 1 << " 10 ms peak";
+    EXPECT_NEAR(p.mean_sim, p.mean_exp, 0.25 * std::abs(p.mean_exp)) << "P" << k + 1 << " mean 0.495-0.995 s";
+  }
 }
