@@ -1,5 +1,5 @@
 // Sweeps run and stored: every variant of a sweep runs once, lands in the run store under its manifest, and
-// is not run again when the sweep is repeated; a check dam on the flume keeps part of the flow from the outlet.
+// is not run again when the sweep is repeated; mass past a check dam is bounded by the release.
 // Uses the shipped C0-C7 flume (scenarios/flume/) at its draft dp (5 cm): about half a minute a run.
 #include <gtest/gtest.h>
 
@@ -48,7 +48,7 @@ SweepOptions coarse(const fs::path& dir) {
 
 }  // namespace
 
-TEST(Study, SweepRunsEachLayoutOnceStoresItAndACheckDamHoldsFlowBack) {
+TEST(Study, SweepRunsEachLayoutOnceAndStoresIt) {
   TempDir tmp;
   const Sweep sweep = two_layouts(tmp.path);
   RunStore store(tmp.path / "runout.db");
@@ -66,19 +66,13 @@ TEST(Study, SweepRunsEachLayoutOnceStoresItAndACheckDamHoldsFlowBack) {
   // Same release in both layouts.
   EXPECT_DOUBLE_EQ(c0.at("terrain.release_volume_m3"), c3.at("terrain.release_volume_m3"));
   const double released = c0.at("terrain.release_volume_m3");
-  // The dam at P2 holds part of the flow upstream of it, so less passes the outlet section; nothing leaves
-  // the flume without passing the outlet in C0. How much of C0's flow reaches the plain is the material's (on
-  // the granular defaults 0.018 m3 at this dp, 19 % of the release at standard; docs/study.md), not this
-  // test's subject: it needs C0 to pass more than the 5 % of the release by which the dam must cut it.
-  const double out0 = c0.at("monitors.section.Outlet.volume_passed_m3");
+  // Not asserted: that the dam lets less pass the outlet. The volume past the outlet is the flume's least converged
+  // metric at this spacing (on the C6 ladder, draft gives 65 times the fine value: docs/tradeoff.md), so no
+  // ordering of it can be asserted with its error as margin (issue 42 item 4.6); docs/study.md has it at standard.
   const double out3 = c3.at("monitors.section.Outlet.volume_passed_m3");
-  EXPECT_GT(out0, 0.05 * released) << "in C0 flow passes the outlet";
-  EXPECT_LT(out3, out0 - 0.05 * released) << "C0 " << out0 << " m3, C3 " << out3 << " m3";
-  // What the dam holds upstream of its axis did not pass the outlet downstream of it. How much that is needs a
-  // resolved dam: at this dp it is two particles tall and stores 3.5e-5 m3 under its crest (0.1 % of the
-  // release), and nothing rests on the 38 degree chute above it on extrapolated walls, so it holds nothing at
-  // the end here; at standard dp it holds 8.5 % of the release (docs/study.md). On DBC walls the layer creeping
-  // on the chute above it was counted as held. What it stops here rests between it and the outlet.
+  // What the dam holds upstream of its axis did not pass the outlet downstream of it (mass, at any resolution). How
+  // much that is needs a resolved dam: at this dp it is two particles tall and stores 3.5e-5 m3 under its crest
+  // (0.1 % of the release); at standard dp it holds 8.5 % of the release (docs/study.md).
   const double held = c3.at("terrain.structures.check_dam.CD_P2.upstream_volume_m3");
   EXPECT_LE(held + out3, released * (1 + 1e-9));
   // The flow loads the dam (positive downstream force) and C0 has no such structure.
@@ -88,14 +82,13 @@ TEST(Study, SweepRunsEachLayoutOnceStoresItAndACheckDamHoldsFlowBack) {
   EXPECT_TRUE(store.series_csv(first.runs[1].run_id, "section_Outlet").has_value());
   EXPECT_TRUE(store.series_csv(first.runs[1].run_id, "run").has_value());
 
-  // The comparison shows the outlet volume lower in C3 than in the baseline C0.
+  // The comparison has the outlet volume of C3 against the baseline C0, as a difference in per cent.
   const Comparison cmp = compare_runs(store, {first.runs[1].run_id}, first.runs[0].run_id);
   bool found = false;
   for (const auto& row : cmp.rows)
     if (row.metric == "monitors.section.Outlet.volume_passed_m3") {
       found = true;
-      ASSERT_TRUE(row.percent[0].has_value());
-      EXPECT_LT(*row.percent[0], 0);
+      EXPECT_EQ(row.percent[0].has_value(), c0.at("monitors.section.Outlet.volume_passed_m3") != 0);
     }
   EXPECT_TRUE(found);
 
