@@ -15,6 +15,7 @@
 #include "runout/engine/kernels.hpp"
 #include "runout/terrain/terrain.hpp"
 #include "run_outputs.hpp"
+#include "screening_gauges.hpp"
 #include "screening_run.hpp"
 
 namespace runout {
@@ -236,7 +237,7 @@ json centre_metrics(const std::array<double, 3>& s, const std::array<double, 3>&
 // The run's loop: samples every output_interval; ends at the scene's duration, when opt.stop is set, or at rest
 // (output.rest_speed: a share rest_quantile of the flow under it for rest_time, tested at each sample).
 std::string step_to_end(const Scene& scene, const ScreeningSettings& s, const RunOptions& opt, da::Model& model,
-                        ScreeningWatch& watch, double released, RunSummary& sum) {
+                        ScreeningWatch& watch, ScreeningGauges& gauges, double released, RunSummary& sum) {
   const auto t0 = std::chrono::steady_clock::now();
   auto last = t0;
   real rest_since = -1;
@@ -244,6 +245,7 @@ std::string step_to_end(const Scene& scene, const ScreeningSettings& s, const Ru
     if (opt.stop && opt.stop->load()) return "stopped";
     model.advance_to(std::min<real>(scene.duration, model.time() + s.output_interval));
     watch.sample(model);
+    gauges.sample(model);
     if (watch.gone_volume() > scene.terrain->max_corridor_outflow * released) {
       std::ostringstream m;
       m.precision(3);
@@ -322,10 +324,6 @@ json run_metrics(const Scene& scene, const ScreeningSettings& s, const da::Model
                     {"density_kg_m3", s.density},
                     {"particles", particles},
                     {"release_volume_m3", released}};
-  j["monitors"] = json::array();
-  if (!scene.monitors.empty())
-    j["warnings"].push_back(std::to_string(scene.monitors.size()) +
-                            " monitor(s) not sampled: the screening model has no section or load monitors yet");
   return j;
 }
 
@@ -346,12 +344,13 @@ RunSummary run_screening(const Scene& scene, const RunOptions& opt) {
   da::Model model(s.config(std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])), terrain_bed(tm), std::move(start));
   ScreeningWatch watch(tm, s, scene.output, n);
   watch.sample(model);
+  ScreeningGauges gauges(scene, scene_json, s, model);
   const auto com_start = flow_centre(model, watch);
 
   RunSummary sum;
   const auto t0 = std::chrono::steady_clock::now();
   try {
-    sum.status = step_to_end(scene, s, opt, model, watch, released, sum);
+    sum.status = step_to_end(scene, s, opt, model, watch, gauges, released, sum);
   } catch (const SimulationError& e) {
     sum.status = "failed";
     sum.error = e.what();
@@ -362,7 +361,12 @@ RunSummary run_screening(const Scene& scene, const RunOptions& opt) {
   sum.particle_steps_per_second = sum.wall_seconds > 0 ? static_cast<double>(n) * sum.steps / sum.wall_seconds : 0;
 
   run_outputs::write_file_atomically(opt.out_dir / "series" / "run.csv", watch.csv());
+  gauges.write(opt.out_dir / "series");
   json m = run_metrics(scene, s, model, watch, sum, released, n);
+  m["monitors"] = gauges.sections();
+  for (const auto& what : gauges.skipped())
+    m["warnings"].push_back(what + ": not sampled by the screening model (section monitors are; a check dam's load "
+                                   "is under terrain.structures[k].screening_load)");
   m["centre_of_mass"] = centre_metrics(com_start, flow_centre(model, watch), tm);
   std::vector<Vec<3>> pos;
   std::vector<real> vol;
@@ -372,6 +376,8 @@ RunSummary run_screening(const Scene& scene, const RunOptions& opt) {
       pos.push_back(Vec<3>(p.x[k], p.y[k], model.bed().sample(p.x[k], p.y[k]).z + 0.5 * p.h[k])), vol.push_back(p.volume[k]);
   const RunLabel label{scene.name, s.spacing, sum.simulated_time, sum.status};
   m["terrain"] = run_outputs::terrain_outputs(tm, watch.grid(), scene.output, opt.out_dir, pos, vol, label);
+  for (size_t k = 0; k < tm.structures.size(); ++k)
+    if (json load = gauges.dam_load(k); !load.is_null()) m["terrain"]["structures"][k]["screening_load"] = load;
   m["terrain"]["release_volume_m3"] = released;  // the screening particles' (the 3D lattice's differs)
   m["terrain"]["corridor_outflow"] = watch.corridor_outflow(released);
   if (watch.gone_count() > 0 && sum.status != "failed")
