@@ -64,6 +64,10 @@ ScreeningGauges::ScreeningGauges(const Scene& scene, const json& scene_json, con
       const int r = raw_side(*sec, p.x[k], p.y[k]);
       pos += r > 0, neg += r < 0, cx += p.x[k] / p.size(), cy += p.y[k] / p.size();
     }
+    if (p.size() == 0 && tm_.inflow_line.size() == 2) {  // a hydrograph's flow starts at its line
+      cx = 0.5 * (tm_.inflow_line[0][0] + tm_.inflow_line[1][0]) - tm_.origin_x;
+      cy = 0.5 * (tm_.inflow_line[0][1] + tm_.inflow_line[1][1]) - tm_.origin_y;
+    }
     if (2 * (pos + neg) > static_cast<long>(p.size()) && pos != neg) {
       sec->downstream = pos > neg ? -1 : 1;
     } else {
@@ -117,6 +121,7 @@ int ScreeningGauges::raw_side(const Section& s, double x, double y) const {
 void ScreeningGauges::sample(const da::Model& m) {
   const da::Particles& p = m.particles();
   for (auto& s : sections_) {
+    if (s->side.size() < p.size()) s->side.resize(p.size(), 0);  // a hydrograph's new particles
     double dv = 0;
     for (size_t k = 0; k < p.size(); ++k) {
       const int now = raw_side(*s, p.x[k], p.y[k]) * s->downstream;

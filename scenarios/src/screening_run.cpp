@@ -138,6 +138,7 @@ class ScreeningWatch {
   // them) and updates the grid and the table.
   void sample(const da::Model& m) {
     const da::Particles& p = m.particles();
+    if (gone_.size() < p.size()) gone_.resize(p.size(), 0);  // a hydrograph's new particles (ids 0..n-1)
     for (size_t k = 0; k < p.size(); ++k)
       if (!gone_[p.id[k]] && std::isnan(tm_.bed_at(p.x[k], p.y[k]))) {
         gone_[p.id[k]] = 1, gone_volume_ += p.volume[k], ++gone_count_;
@@ -161,7 +162,7 @@ class ScreeningWatch {
       if (!gone_[p.id[k]]) s.push_back(std::sqrt(p.ux[k] * p.ux[k] + p.uy[k] * p.uy[k] + p.uz[k] * p.uz[k]));
     return s;
   }
-  bool gone(uint32_t id) const { return gone_[id]; }
+  bool gone(uint32_t id) const { return id < gone_.size() && gone_[id]; }
   double gone_volume() const { return gone_volume_; }
   size_t gone_count() const { return gone_count_; }
   const terrain::InundationGrid& grid() const { return grid_; }
@@ -234,19 +235,85 @@ json centre_metrics(const std::array<double, 3>& s, const std::array<double, 3>&
           {"travel_angle_deg", travel > 0 ? std::atan2(drop, travel) * 180 / M_PI : 0.0}};
 }
 
+// A hydrograph release (release.hydrograph): the discharge Q(t) of the 3D run's inlet (its speed table times its
+// opening's area), entering across the line as rows of particles at the screening spacing, each particle
+// depth x spacing^2, one row whenever the volume due since the last reaches a row's, moving downstream at
+// Q / (depth x width). The volume that entered trails the hydrograph's integral by less than a row.
+class Inflow {
+ public:
+  Inflow(const terrain::TerrainModel& tm, const InletSpec<3>& inlet, real dp, real spacing)
+      : inlet_(inlet), area_(inlet.opening_area(dp)), spacing_(spacing), depth_(tm.release_depth) {
+    const auto& line = tm.inflow_line;
+    const double length = std::hypot(line[1][0] - line[0][0], line[1][1] - line[0][1]);
+    length_ = length;
+    lanes_ = std::max<size_t>(1, static_cast<size_t>(std::floor(length / spacing + 1e-6)));
+    for (size_t k = 0; k < lanes_; ++k) {
+      const double a = (k + 0.5) * length / lanes_ / length;  // lanes spread over the whole line
+      at_.push_back({line[0][0] + a * (line[1][0] - line[0][0]) - tm.origin_x + 0.5 * spacing * tm.inflow_normal[0],
+                     line[0][1] + a * (line[1][1] - line[0][1]) - tm.origin_y + 0.5 * spacing * tm.inflow_normal[1]});
+    }
+    normal_ = tm.inflow_normal;
+    particle_volume_ = depth_ * spacing * length / lanes_;
+  }
+  real discharge(real t) const { return inlet_.speed_at(t) * area_; }
+  // Whether everything the hydrograph brings has entered (its table ended at zero, less than a row owed).
+  bool ended(real t) const {
+    return t >= inlet_.speed.back()[0] && inlet_.speed.back()[1] <= 0;
+  }
+  // The next time to stop at: a quarter of a spacing's travel at the inflow speed, at most `limit`.
+  real next(real t, real limit) const {
+    const real u = discharge(t) / (depth_ * length_);
+    return std::min(limit, t + std::max<real>(1e-3, 0.25 * spacing_ / std::max<real>(u, 0.05)));
+  }
+  // Adds the rows due by the model's time (the hydrograph integrated by the trapezoid rule since the last call).
+  void feed(da::Model& m) {
+    const real t = m.time();
+    due_ += 0.5 * (discharge(last_t_) + discharge(t)) * (t - last_t_);
+    last_t_ = t;
+    const real row = particle_volume_ * lanes_;
+    const real u = discharge(t) / (depth_ * length_);
+    while (due_ - entered_ >= row) {
+      da::Particles p;
+      for (const auto& q : at_) {
+        p.add(q[0], q[1], particle_volume_);
+        const da::BedSample b = m.bed().sample(q[0], q[1]);
+        const real ux = u * normal_[0], uy = u * normal_[1];
+        p.ux.back() = ux, p.uy.back() = uy, p.uz.back() = b.grad[0] * ux + b.grad[1] * uy;
+      }
+      m.add_particles(p);
+      entered_ += row;
+    }
+  }
+  real entered() const { return entered_; }
+  real due() const { return due_; }
+
+ private:
+  const InletSpec<3>& inlet_;
+  real area_, spacing_, depth_, length_ = 0, particle_volume_ = 0;
+  size_t lanes_ = 0;
+  std::vector<std::array<real, 2>> at_;
+  std::array<double, 2> normal_{};
+  real due_ = 0, entered_ = 0, last_t_ = 0;
+};
+
 // The run's loop: samples every output_interval; ends at the scene's duration, when opt.stop is set, or at rest
 // (output.rest_speed: a share rest_quantile of the flow under it for rest_time, tested at each sample).
 std::string step_to_end(const Scene& scene, const ScreeningSettings& s, const RunOptions& opt, da::Model& model,
-                        ScreeningWatch& watch, ScreeningGauges& gauges, double released, RunSummary& sum) {
+                        ScreeningWatch& watch, ScreeningGauges& gauges, Inflow* inflow, double& released,
+                        RunSummary& sum) {
   const auto t0 = std::chrono::steady_clock::now();
   auto last = t0;
   real rest_since = -1;
   while (model.time() < scene.duration) {
     if (opt.stop && opt.stop->load()) return "stopped";
-    model.advance_to(std::min<real>(scene.duration, model.time() + s.output_interval));
+    const real until = std::min<real>(scene.duration, model.time() + s.output_interval);
+    while (model.time() < until) {
+      model.advance_to(inflow ? inflow->next(model.time(), until) : until);
+      if (inflow) inflow->feed(model), released = inflow->entered();
+    }
     watch.sample(model);
     gauges.sample(model);
-    if (watch.gone_volume() > scene.terrain->max_corridor_outflow * released) {
+    if (watch.gone_volume() > 0 && watch.gone_volume() > scene.terrain->max_corridor_outflow * released) {
       std::ostringstream m;
       m.precision(3);
       m << "flow left the modelled corridor: " << 100.0 * watch.gone_volume() / released
@@ -255,7 +322,7 @@ std::string step_to_end(const Scene& scene, const ScreeningSettings& s, const Ru
         << ", accepted range [0, 1]): widen terrain.corridor (buffer, travel_angle or polygon)";
       throw SimulationError(m.str());
     }
-    if (scene.output.rest_speed > 0) {
+    if (scene.output.rest_speed > 0 && (!inflow || inflow->ended(model.time()))) {
       std::vector<real> speed = watch.speeds(model);
       const size_t k = std::clamp<size_t>(static_cast<size_t>(std::ceil(scene.output.rest_quantile * speed.size())), 1,
                                           std::max<size_t>(1, speed.size()));
@@ -280,14 +347,14 @@ std::string step_to_end(const Scene& scene, const ScreeningSettings& s, const Ru
 // metrics.json's keys the 3D run writes too (status, steps, times, mass, rest, final speed), and the screening
 // model's own settings under "screening".
 json run_metrics(const Scene& scene, const ScreeningSettings& s, const da::Model& m, const ScreeningWatch& w,
-                 const RunSummary& sum, double released, size_t particles) {
+                 const RunSummary& sum, double released, size_t particles, const Inflow* inflow) {
   json j;
   j["scene"] = scene.name;
   j["model"] = "screening";
   j["status"] = sum.status;
   if (!sum.error.empty()) j["error"] = sum.error;
   j["dimensions"] = 3;
-  j["particles"] = {{"fluid_initial", particles}, {"fluid_final", particles - w.gone_count()}};
+  j["particles"] = {{"fluid_initial", particles}, {"fluid_final", m.particles().size() - w.gone_count()}};
   j["steps"] = sum.steps;
   j["simulated_time_s"] = sum.simulated_time;
   j["wall_time_s"] = sum.wall_seconds;
@@ -299,11 +366,11 @@ json run_metrics(const Scene& scene, const ScreeningSettings& s, const da::Model
                  {"quantile", scene.output.rest_quantile},
                  {"ended_at_s", sum.ended_at_rest >= 0 ? json(sum.ended_at_rest) : json(nullptr)}};
   const double now = m.total_volume() - w.gone_volume();
-  j["mass"] = {{"initial_kg", released * s.density},
+  j["mass"] = {{"initial_kg", inflow ? 0.0 : released * s.density},
                {"final_kg", now * s.density},
                {"outflow_kg", w.gone_volume() * s.density},
-               {"inflow_kg", 0.0},
-               {"relative_error", (m.total_volume() - released) / released}};
+               {"inflow_kg", inflow ? released * s.density : 0.0},
+               {"relative_error", released > 0 ? (m.total_volume() - released) / released : 0.0}};
   std::vector<real> speed = w.speeds(m);
   std::sort(speed.begin(), speed.end());
   auto pct = [&](double q) { return speed.empty() ? 0.0 : speed[static_cast<size_t>(q * (speed.size() - 1))]; };
@@ -324,6 +391,8 @@ json run_metrics(const Scene& scene, const ScreeningSettings& s, const da::Model
                     {"density_kg_m3", s.density},
                     {"particles", particles},
                     {"release_volume_m3", released}};
+  if (inflow)  // the hydrograph's integral over the run, and what entered of it (less than a row behind)
+    j["screening"]["inflow"] = {{"volume_due_m3", inflow->due()}, {"volume_entered_m3", inflow->entered()}};
   return j;
 }
 
@@ -338,19 +407,23 @@ RunSummary run_screening(const Scene& scene, const RunOptions& opt) {
   fs::create_directories(opt.out_dir / "series");
 
   double released = 0;
-  da::Particles start = release_particles(scene_json, tm, s.spacing, released);
+  const auto& setup = std::get<SceneSetup<3>>(scene.setup);
+  const bool hydrograph = !tm.inflow_line.empty();
+  da::Particles start = hydrograph ? da::Particles{} : release_particles(scene_json, tm, s.spacing, released);
   const size_t n = start.size();
-  const auto& g = std::get<SceneSetup<3>>(scene.setup).config.gravity;
+  const auto& g = setup.config.gravity;
   da::Model model(s.config(std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])), terrain_bed(tm), std::move(start));
   ScreeningWatch watch(tm, s, scene.output, n);
   watch.sample(model);
   ScreeningGauges gauges(scene, scene_json, s, model);
+  std::unique_ptr<Inflow> inflow;
+  if (hydrograph) inflow = std::make_unique<Inflow>(tm, setup.inlets.at(0), scene.dp, s.spacing);
   const auto com_start = flow_centre(model, watch);
 
   RunSummary sum;
   const auto t0 = std::chrono::steady_clock::now();
   try {
-    sum.status = step_to_end(scene, s, opt, model, watch, gauges, released, sum);
+    sum.status = step_to_end(scene, s, opt, model, watch, gauges, inflow.get(), released, sum);
   } catch (const SimulationError& e) {
     sum.status = "failed";
     sum.error = e.what();
@@ -358,11 +431,12 @@ RunSummary run_screening(const Scene& scene, const RunOptions& opt) {
   sum.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   sum.steps = static_cast<long>(model.steps());
   sum.simulated_time = model.time();
-  sum.particle_steps_per_second = sum.wall_seconds > 0 ? static_cast<double>(n) * sum.steps / sum.wall_seconds : 0;
+  sum.particle_steps_per_second =
+      sum.wall_seconds > 0 ? static_cast<double>(model.particles().size()) * sum.steps / sum.wall_seconds : 0;
 
   run_outputs::write_file_atomically(opt.out_dir / "series" / "run.csv", watch.csv());
   gauges.write(opt.out_dir / "series");
-  json m = run_metrics(scene, s, model, watch, sum, released, n);
+  json m = run_metrics(scene, s, model, watch, sum, released, n, inflow.get());
   m["monitors"] = gauges.sections();
   for (const auto& what : gauges.skipped())
     m["warnings"].push_back(what + ": not sampled by the screening model (section monitors are; a check dam's load "

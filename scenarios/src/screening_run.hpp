@@ -47,7 +47,7 @@ bool is_screening(const Scene& scene);
 
 // Checks a scene's "model" and "screening" at parse time (parse_scene): SceneError for a bad value, for a
 // screening model on a scene that is not a terrain scene, or for what the screening model does not run
-// (a hydrograph release, fluid blocks, inlets, extra boundaries), each naming its field.
+// (fluid blocks, inlets, extra boundaries), each naming its field.
 void check_scene_model(const nlohmann::json& scene_json, const Scene& scene);
 
 // Runs a screening scene and writes OUT/metrics.json, OUT/series/run.csv and OUT/rasters as run_scene does.

@@ -113,9 +113,6 @@ void check_scene_model(const json& j, const Scene& scene) {
   for (const char* key : {"fluid", "inlets", "boundaries"})
     if (top.has(key) && !(top.raw(key).is_array() && top.raw(key).empty()))
       throw SceneError(key, "the screening model runs the terrain's release only (remove it, or run \"model\": \"sph3d\")");
-  if (Fields(j.at("release"), "release", {}, true).has("hydrograph"))
-    throw SceneError("release.hydrograph", "the screening model takes a block release only (release.polygon with "
-                                           "depth or volume); run a hydrograph with \"model\": \"sph3d\"");
   (void)screening_settings(j, scene);
 }
 
