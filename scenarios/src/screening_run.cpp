@@ -454,6 +454,8 @@ RunSummary run_screening(const Scene& scene, const RunOptions& opt) {
     if (json load = gauges.dam_load(k); !load.is_null()) m["terrain"]["structures"][k]["screening_load"] = load;
   m["terrain"]["release_volume_m3"] = released;  // the screening particles' (the 3D lattice's differs)
   m["terrain"]["corridor_outflow"] = watch.corridor_outflow(released);
+  if (opt.snapshots || opt.checkpoint_interval > 0)  // runs of seconds: neither is written yet
+    m["warnings"].push_back("the screening model writes no snapshots or checkpoints (asked for)");
   if (watch.gone_count() > 0 && sum.status != "failed")
     m["warnings"].push_back(std::to_string(watch.gone_count()) +
                             " particle(s) left the modelled corridor and were left out of the outputs");

@@ -60,7 +60,9 @@
 
 #include "runout/scenarios/run.hpp"
 #include "runout/scenarios/scene.hpp"
+#include "runout/scenarios/store.hpp"
 #include "runout/scenarios/sweep.hpp"
+#include "runout/scenarios/tradeoff.hpp"
 #include "runout/terrain/terrain.hpp"
 
 namespace fs = std::filesystem;
@@ -434,6 +436,20 @@ TEST(ScreeningRun, FidelityScreeningSelectsTheModelAndIsRecorded) {
   EXPECT_EQ(json::parse(resolved)["dp"], 0.5);
   EXPECT_EQ(json::parse(make_manifest(resolved, dir, f).json)["fidelity"], "screening");
   (void)parse_scene(resolved, dir);  // valid as resolved
+
+  // Not a dp level: `runout tradeoff` refuses it before running anything.
+  RunStore store(dir / "runout.db");
+  TradeoffSpec spec;
+  spec.name = "t";
+  spec.base_json = s.dump();
+  spec.base_dir = dir;
+  spec.levels = {"screening", "standard"};
+  try {
+    (void)run_tradeoff(store, spec, TradeoffRunOptions{});
+    ADD_FAILURE() << "screening accepted as a tradeoff level";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.field, "levels");
+  }
 }
 
 }  // namespace
