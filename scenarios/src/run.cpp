@@ -22,6 +22,8 @@
 #include "runout/terrain/terrain.hpp"
 #include "runout/terrain/vector.hpp"
 #include "hazard_outputs.hpp"
+#include "run_outputs.hpp"
+#include "screening_run.hpp"
 
 namespace runout {
 namespace {
@@ -1016,7 +1018,20 @@ bool has_checkpoint_of(const Scene& scene, const fs::path& out_dir) {
   }
 }
 
+namespace run_outputs {
+
+void write_file_atomically(const fs::path& path, const std::string& text) { write_atomically(path, text); }
+
+json terrain_outputs(const terrain::TerrainModel& tm, const terrain::InundationGrid& g, const OutputSettings& out,
+                     const fs::path& dir, const std::vector<Vec<3>>& final_pos, const std::vector<real>& final_vol,
+                     const RunLabel& label) {
+  return write_terrain_outputs(tm, g, out, dir, final_pos, final_vol, label);
+}
+
+}  // namespace run_outputs
+
 RunSummary run_scene(const Scene& scene, const RunOptions& options) {
+  if (is_screening(scene)) return run_screening(scene, options);  // the screening rung (screening_run.hpp)
   return std::visit([&](const auto& setup) {
     constexpr int D = std::decay_t<decltype(setup)>::kDim;
     return run_typed<D>(scene, setup, options);

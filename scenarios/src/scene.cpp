@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "scene/readers.hpp"
+#include "screening_run.hpp"
 
 namespace runout {
 namespace {
@@ -15,8 +16,8 @@ using namespace scene_reader;
 
 // Fidelity presets used by sweeps (scenarios/sweep.hpp); a plain run is "standard".
 void check_fidelity(const Fields& top, real dp) {
-  Fields fid(top.raw("fidelity"), "fidelity", {"draft", "standard", "fine"});
-  for (const char* level : {"draft", "standard", "fine"}) {
+  Fields fid(top.raw("fidelity"), "fidelity", {"draft", "standard", "fine", "screening"});
+  for (const char* level : {"draft", "standard", "fine", "screening"}) {
     if (!fid.has(level)) continue;
     Fields p(fid.raw(level), fid.at(level), {"dp", "numerics"});
     (void)p.number_or("dp", dp, 1e-4, 100.0);
@@ -100,7 +101,9 @@ Scene parse_scene(const std::string& json_text, const std::filesystem::path& bas
   scene.duration = top.number("duration", 0.0, 1e5, true);
   scene.output = read_output(j, scene.duration);
   scene.canonical_json = j.dump();
-  return scene.dimensions == 2 ? build<2>(j, std::move(scene), base_dir) : build<3>(j, std::move(scene), base_dir);
+  scene = scene.dimensions == 2 ? build<2>(j, std::move(scene), base_dir) : build<3>(j, std::move(scene), base_dir);
+  check_scene_model(j, scene);  // "model" and "screening" (screening_scene.cpp)
+  return scene;
 }
 
 Scene load_scene(const std::filesystem::path& path) {

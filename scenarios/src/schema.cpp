@@ -236,7 +236,9 @@ json scene_schema() {
             {"release", release_schema()},
             {"structures", structures_schema()},
             {"protected_zones", protected_zones_schema()},
-            {"fidelity", object}}}};
+            {"fidelity", object},
+            {"model", {{"enum", {"sph3d", "screening"}}}},
+            {"screening", object}}}};
 }
 
 // "[0, 90)", "(0, 1e8]": a range as the docs write it.

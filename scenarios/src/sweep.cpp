@@ -50,6 +50,9 @@ void apply_fidelity(json& j, const Fidelity& fidelity) {
   if (j.contains("fidelity") && j["fidelity"].is_object() && j["fidelity"].contains(fidelity.name))
     preset = j["fidelity"][fidelity.name];
   j.erase("fidelity");
+  // The screening rung runs the scene's terrain at its dp with the thickness-integrated model (the screening
+  // section's own spacing); a preset may still set dp, the bed grid's spacing.
+  if (fidelity.name == "screening") j["model"] = "screening";
   if (fidelity.dp) {
     j["dp"] = *fidelity.dp;
   } else if (preset.contains("dp")) {
@@ -66,7 +69,7 @@ void apply_fidelity(json& j, const Fidelity& fidelity) {
 }  // namespace
 
 const std::vector<std::string>& fidelity_names() {
-  static const std::vector<std::string> names = {"draft", "standard", "fine"};
+  static const std::vector<std::string> names = {"draft", "standard", "fine", "screening"};
   return names;
 }
 
@@ -114,10 +117,10 @@ Sweep parse_sweep(const std::string& json_text, const std::filesystem::path& bas
   const json base = json::parse(sw.base_json, nullptr, false);
   if (base.is_discarded()) throw SceneError("base", "'" + sw.base_path.string() + "' is not valid JSON");
   if (j.contains("fidelity")) {
-    if (!j["fidelity"].is_string()) throw SceneError("fidelity", "must be one of draft, standard, fine");
+    if (!j["fidelity"].is_string()) throw SceneError("fidelity", "must be one of draft, standard, fine, screening");
     sw.fidelity.name = j["fidelity"].get<std::string>();
     if (std::find(fidelity_names().begin(), fidelity_names().end(), sw.fidelity.name) == fidelity_names().end())
-      throw SceneError("fidelity", "unknown value '" + sw.fidelity.name + "' (accepted: draft, standard, fine)");
+      throw SceneError("fidelity", "unknown value '" + sw.fidelity.name + "' (accepted: draft, standard, fine, screening)");
   }
   const auto candidates = candidate_names(base);
   if (j.contains("variants") == j.contains("factorial"))

@@ -182,6 +182,9 @@ TradeoffResult run_tradeoff(RunStore& store, const TradeoffSpec& spec, const Tra
   std::vector<double> plan_dp;  // in spec.levels' order
   for (const auto& token : spec.levels) {
     Planned p;
+    if (token == "screening")  // another model at the scene's dp, not a dp level (docs/tradeoff.md, "Screening")
+      throw SceneError("levels", "'screening' is another model, not a dp level: sweep it with --fidelity screening "
+                                 "and compare its runs (runout compare) against a dp level's");
     if (std::find(fidelity_names().begin(), fidelity_names().end(), token) != fidelity_names().end()) {
       p.fidelity.name = token;
     } else {

@@ -24,7 +24,7 @@ std::string read_text(const std::filesystem::path& p) {
 }
 
 void FidelityArgs::add_to(CLI::App* cmd, const std::string& default_text) {
-  auto* f = cmd->add_option("--fidelity", name, "draft | standard | fine (default: " + default_text + ")")
+  auto* f = cmd->add_option("--fidelity", name, "draft | standard | fine | screening (default: " + default_text + ")")
                 ->check(CLI::IsMember(fidelity_names()));
   auto* d = cmd->add_option("--dp", dp, "Explicit particle spacing [m] instead of a preset")->check(CLI::Range(1e-4, 1e3));
   f->excludes(d);  // CLI11 refuses both: "--fidelity excludes --dp" (exit 2, main.cpp)

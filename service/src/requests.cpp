@@ -180,7 +180,7 @@ Fidelity parse_fidelity(const json& body, const std::string& field) {
   Fidelity f;
   if (!body.contains(field)) return f;  // standard
   const json& v = body[field];
-  const std::string accepted = "one of draft, standard, fine, or {\"dp\": a number in [0.0001, 100]}";
+  const std::string accepted = "one of draft, standard, fine, screening, or {\"dp\": a number in [0.0001, 100]}";
   if (v.is_string()) {
     const std::string name = v.get<std::string>();
     if (std::find(fidelity_names().begin(), fidelity_names().end(), name) == fidelity_names().end())

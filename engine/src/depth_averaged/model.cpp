@@ -127,6 +127,18 @@ Model::Model(const Config& config, Bed bed, Particles particles)
   if (config_.adaptive_smoothing) refresh();  // the smoothing lengths of the initial thickness
 }
 
+void Model::add_particles(const Particles& more) {
+  const size_t n0 = p_.size();
+  for (size_t k = 0; k < more.size(); ++k) {
+    p_.x.push_back(impl_->cells.wrap(more.x[k], 0)), p_.y.push_back(impl_->cells.wrap(more.y[k], 1));
+    p_.volume.push_back(more.volume[k]);
+    p_.ux.push_back(more.ux[k]), p_.uy.push_back(more.uy[k]), p_.uz.push_back(more.uz[k]);
+    p_.h.push_back(0), p_.smoothing.push_back(h_kernel_);
+    p_.id.push_back(static_cast<uint32_t>(n0 + k));
+  }
+  refresh();  // the new particles' bed samples are not there yet: the adaptive update waits for the next step
+}
+
 Model::~Model() = default;
 Model::Model(Model&&) noexcept = default;
 

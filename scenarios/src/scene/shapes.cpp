@@ -73,7 +73,8 @@ const std::set<std::string>& top_keys() {
   static const std::set<std::string> keys = {"name",     "dimensions", "dp",          "duration",   "gravity",
                                              "materials", "numerics",  "fluid",       "boundaries", "domain",
                                              "output",   "limits",     "description", "terrain",    "release",
-                                             "structures", "protected_zones", "monitors", "fidelity", "inlets"};
+                                             "structures", "protected_zones", "monitors", "fidelity", "inlets",
+                                             "model",    "screening"};
   return keys;
 }
 

@@ -133,6 +133,9 @@ class Model {
   real step();
   // Steps until time() reaches t exactly (the last step is shortened).
   void advance_to(real t);
+  // Appends particles with their positions, volumes and velocities (a hydrograph's inflow); ids continue from
+  // size(), thickness and smoothing are filled here, the next step moves them with the rest.
+  void add_particles(const Particles& more);
   real time() const { return time_; }
   size_t steps() const { return steps_; }
   const Particles& particles() const { return p_; }

@@ -1,0 +1,119 @@
+// The scene's "model" key and "screening" section (docs/scene-format.md, "The screening rung"): read and
+// checked at parse time, so a sweep refuses a bad screening field before anything runs.
+#include <algorithm>
+#include <cmath>
+
+#include "runout/engine/rheology.hpp"
+#include "scene/readers.hpp"
+#include "screening_run.hpp"
+
+namespace runout {
+namespace {
+
+using namespace scene_reader;
+
+// The release material's bed friction: the 3D engine's bed coefficient (friction-HBP: sin phi, docs/design.md,
+// "Thin sheets, walls and basal friction"), so the two rungs stop a block alike.
+void material_friction(const Scene& scene, const std::string& name, ScreeningSettings& s) {
+  const auto& materials = std::get<SceneSetup<3>>(scene.setup).materials;
+  const auto it = std::find_if(materials.begin(), materials.end(), [&](const auto& m) { return m.name == name; });
+  if (it == materials.end()) throw SceneError("release.material", "no material named '" + name + "'");
+  s.density = it->density;
+  if (!s.friction.empty()) return;
+  const real mu = make_rheology(*it)->wall_friction_coefficient();
+  if (!(mu > 0))
+    throw SceneError("screening.friction", "material '" + name + "' (" + it->rheology +
+                                               ") has no bed friction coefficient: give screening.friction "
+                                               "{\"law\": \"coulomb\" or \"voellmy\", ...}");
+  s.friction = "coulomb";
+  s.friction_parameters = {{"mu", mu}};
+  s.friction_source = "material '" + name + "' (" + it->rheology + ": sin phi)";
+}
+
+// screening.friction: {"law": NAME, and that law's parameters (ranges declared by the law)}.
+void read_friction(const Fields& f, ScreeningSettings& s, real gravity) {
+  if (!f.has("friction")) return;
+  std::vector<std::string> laws;
+  for (const auto* m : depth_averaged::friction_models()) laws.push_back(m->name);
+  const std::string law = Fields(f.raw("friction"), f.at("friction"), {}, true).string("law", laws);
+  std::set<std::string> keys = {"law"};
+  for (const auto& p : depth_averaged::friction_model(law).parameters) keys.insert(p.key);
+  Fields fr(f.raw("friction"), f.at("friction"), keys);
+  for (const auto& p : depth_averaged::friction_model(law).parameters) s.friction_parameters[p.key] = read_parameter(fr, p);
+  try {
+    (void)depth_averaged::make_friction(law, s.friction_parameters, gravity, "screening.friction");
+  } catch (const std::invalid_argument& e) {
+    throw SceneError("screening.friction", e.what());
+  }
+  s.friction = law;
+  s.friction_source = "screening.friction";
+}
+
+}  // namespace
+
+const std::vector<std::string>& scene_model_names() {
+  static const std::vector<std::string> names = {"sph3d", "screening"};
+  return names;
+}
+
+real ScreeningSettings::kernel_ratio() const {
+  if (kernel_rule == "fixed" || spacing >= reference_spacing) return smoothing_ratio;
+  return smoothing_ratio * std::sqrt(reference_spacing / spacing);
+}
+
+depth_averaged::Config ScreeningSettings::config(real gravity) const {
+  depth_averaged::Config c;
+  c.gravity = gravity;
+  c.earth_pressure = earth_pressure;
+  c.spacing = spacing;
+  c.smoothing_ratio = kernel_ratio();
+  c.cfl = cfl;
+  c.dt_max = dt_max;
+  c.friction = friction;
+  c.friction_parameters = friction_parameters;
+  return c;
+}
+
+ScreeningSettings screening_settings(const json& j, const Scene& scene) {
+  Fields f(j.contains("screening") ? j.at("screening") : json::object(), "screening",
+           {"spacing", "smoothing_ratio", "reference_spacing", "kernel_rule", "earth_pressure", "cfl", "dt_max",
+            "output_interval", "friction"});
+  ScreeningSettings s;
+  s.spacing = f.number_or("spacing", scene.dp, 1e-3, 100.0);
+  const auto& engine = depth_averaged::config_parameters();  // the engine's declared ranges and defaults
+  s.earth_pressure = read_parameter(f, parameter_spec(engine, "earth_pressure"));
+  s.smoothing_ratio = read_parameter(f, parameter_spec(engine, "smoothing_ratio"));
+  s.cfl = read_parameter(f, parameter_spec(engine, "cfl"));
+  s.dt_max = read_parameter(f, parameter_spec(engine, "dt_max"));
+  s.reference_spacing = f.number_or("reference_spacing", 0.5, 0.0, 100.0, true);
+  s.kernel_rule = f.string_or("kernel_rule", "sqrt", {"sqrt", "fixed"});
+  s.output_interval = f.number_or("output_interval", std::max<real>(0.1, scene.output.series_interval), 0.0, 1e4, true);
+  const auto& g = std::get<SceneSetup<3>>(scene.setup).config.gravity;
+  const real gravity = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+  read_friction(f, s, gravity);
+  s.release_material = Fields(j.at("release"), "release", {}, true).string("material");
+  material_friction(scene, s.release_material, s);
+  return s;
+}
+
+bool is_screening(const Scene& scene) {
+  const json j = json::parse(scene.canonical_json);
+  return j.value("model", scene_model_names().front()) == "screening";
+}
+
+void check_scene_model(const json& j, const Scene& scene) {
+  const Fields top(j, "", {}, true);
+  const std::string model = top.string_or("model", scene_model_names().front(), scene_model_names());
+  if (model != "screening") {  // a section a sweep's --fidelity screening would use is checked now
+    if (top.has("screening") && !scene.terrain) throw SceneError("screening", "needs a terrain section");
+    if (top.has("screening")) (void)screening_settings(j, scene);
+    return;
+  }
+  if (!scene.terrain) throw SceneError("model", "'screening' runs terrain scenes only (a terrain section and a release)");
+  for (const char* key : {"fluid", "inlets", "boundaries"})
+    if (top.has(key) && !(top.raw(key).is_array() && top.raw(key).empty()))
+      throw SceneError(key, "the screening model runs the terrain's release only (remove it, or run \"model\": \"sph3d\")");
+  (void)screening_settings(j, scene);
+}
+
+}  // namespace runout
