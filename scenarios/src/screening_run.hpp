@@ -27,6 +27,7 @@ struct ScreeningSettings {
   real cfl = 0.2;
   real dt_max = 0.1;            // [s]
   real output_interval = 0.1;   // [s] between samples of the inundation grid and the rest test
+  bool curvature = true;        // the bend's centripetal load in the basal normal stress (engine Config)
   std::string friction;         // "coulomb" or "voellmy" (depth_averaged::friction_models())
   ParameterValues friction_parameters;
   std::string friction_source;  // "material '<name>' (sin phi)" or "screening.friction"

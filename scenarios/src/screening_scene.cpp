@@ -71,13 +71,14 @@ depth_averaged::Config ScreeningSettings::config(real gravity) const {
   c.dt_max = dt_max;
   c.friction = friction;
   c.friction_parameters = friction_parameters;
+  c.curvature = curvature;
   return c;
 }
 
 ScreeningSettings screening_settings(const json& j, const Scene& scene) {
   Fields f(j.contains("screening") ? j.at("screening") : json::object(), "screening",
            {"spacing", "smoothing_ratio", "reference_spacing", "kernel_rule", "earth_pressure", "cfl", "dt_max",
-            "output_interval", "friction"});
+            "output_interval", "friction", "curvature"});
   ScreeningSettings s;
   s.spacing = f.number_or("spacing", scene.dp, 1e-3, 100.0);
   const auto& engine = depth_averaged::config_parameters();  // the engine's declared ranges and defaults
@@ -88,6 +89,7 @@ ScreeningSettings screening_settings(const json& j, const Scene& scene) {
   s.reference_spacing = f.number_or("reference_spacing", 0.5, 0.0, 100.0, true);
   s.kernel_rule = f.string_or("kernel_rule", "sqrt", {"sqrt", "fixed"});
   s.output_interval = f.number_or("output_interval", std::max<real>(0.1, scene.output.series_interval), 0.0, 1e4, true);
+  s.curvature = f.boolean_or("curvature", true);
   const auto& g = std::get<SceneSetup<3>>(scene.setup).config.gravity;
   const real gravity = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
   read_friction(f, s, gravity);

@@ -420,6 +420,9 @@ TEST(ScreeningRun, RefusesABadScreeningFieldNamingIt) {
   s["screening"]["friction"] = {{"law", "voellmy"}, {"mu", 0.2}, {"xi", -1}};
   EXPECT_EQ(refused(s).rfind("screening.friction.xi | ", 0), 0u) << refused(s);
   s = channel_scene(40.0, 10, 4, true);
+  s["screening"]["curvature"] = "yes";
+  EXPECT_EQ(refused(s).rfind("screening.curvature | ", 0), 0u) << refused(s);
+  s = channel_scene(40.0, 10, 4, true);
   s["model"] = "sph2d";
   EXPECT_EQ(refused(s).rfind("model | ", 0), 0u) << refused(s);
 }
