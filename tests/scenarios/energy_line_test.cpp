@@ -40,6 +40,7 @@
 
 #include "runout/scenarios/run.hpp"
 #include "runout/scenarios/scene.hpp"
+#include "bend_profile.hpp"
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
@@ -48,30 +49,13 @@ using namespace runout;
 namespace {
 
 const fs::path kSource = RUNOUT_SOURCE_DIR;
-constexpr double kE0 = 500000.0, kN0 = 5000000.0, kZ0 = 300.0;  // the DEM's south-west corner, its top
+constexpr double kE0 = 500000.0, kN0 = 5000000.0;  // the DEM's south-west corner
 constexpr double kLength = 240.0, kWidth = 80.0, kCell = 1.0, kPhiDeg = 20.0, kG = 9.81;
 constexpr double kDeg = M_PI / 180;
 
-// A face, a concave circular bend tangent to it and to the runout, the runout; the release on the face.
-struct Profile {
-  const char* name;
-  double face_deg, face_end, radius, runout_deg;  // [deg], [m], [m], [deg]
-  double release_from, release_to;                // [m] along x
-  double centre() const { return face_end + radius * std::sin(face_deg * kDeg); }
-  double bend_end() const { return centre() - radius * std::sin(runout_deg * kDeg); }
-  // Ground elevation at x m east of the DEM's west edge.
-  double ground(double x) const {
-    const double z_face_end = kZ0 - std::tan(face_deg * kDeg) * face_end;
-    const double zc = z_face_end + radius * std::cos(face_deg * kDeg), xc = centre();
-    if (x <= face_end) return kZ0 - std::tan(face_deg * kDeg) * x;
-    if (x <= bend_end()) return zc - std::sqrt(radius * radius - (x - xc) * (x - xc));
-    return zc - radius * std::cos(runout_deg * kDeg) - std::tan(runout_deg * kDeg) * (x - bend_end());
-  }
-  double curvature(double x) const { return x > face_end && x <= bend_end() ? 1.0 / radius : 0.0; }
-};
-
-const Profile kSceneA{"a", 30, 60, 120, 10, 10, 30};
-const Profile kSceneB{"b", 35, 50, 60, 10, 5, 25};
+using Profile = runout_test::BendProfile;
+const Profile& kSceneA = runout_test::kBendA;
+const Profile& kSceneB = runout_test::kBendB;
 
 void write_dem(const Profile& p, const fs::path& dir) {
   const int nx = static_cast<int>(kLength / kCell), ny = static_cast<int>(kWidth / kCell);
@@ -115,19 +99,7 @@ double line_reach(const Profile& p, double x0, double z0, double mu) {
   return 0.5 * (lo + hi);
 }
 
-// The rigid block's travel with the bend's centripetal load: per horizontal dx, d(v^2/2) = g tan(theta) dx -
-// mu (g + v^2 k / cos(theta)) dx, from rest at x0 until v = 0 (explicit steps of 1 mm).
-double block_reach(const Profile& p, double x0, double mu) {
-  const double dx = 1e-3;
-  double e = 0, x = x0;  // e = v^2 / 2
-  while (x < kLength) {
-    const double slope = (p.ground(x) - p.ground(x + dx)) / dx, cos_t = 1 / std::sqrt(1 + slope * slope);
-    e += (kG * slope - mu * kG - mu * 2 * e * p.curvature(x + 0.5 * dx) / cos_t) * dx;
-    x += dx;
-    if (e <= 0 && x > x0 + 1) break;
-  }
-  return x - x0;
-}
+double block_reach(const Profile& p, double x0, double mu) { return runout_test::block_reach(p, x0, mu, kLength, kG); }
 
 struct Stop {
   RunSummary run;

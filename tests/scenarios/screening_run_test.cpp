@@ -64,6 +64,7 @@
 #include "runout/scenarios/sweep.hpp"
 #include "runout/scenarios/tradeoff.hpp"
 #include "runout/terrain/terrain.hpp"
+#include "bend_profile.hpp"
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
@@ -112,37 +113,14 @@ json run_in(const fs::path& dir, const json& scene, RunSummary* out = nullptr) {
   return json::parse(s.metrics_json);
 }
 
-// ---- (a) the energy-line profiles (as tests/scenarios/energy_line_test.cpp builds them) ----
+// ---- (a) the energy-line profiles (tests/bend_profile.hpp, shared with tests/scenarios/energy_line_test.cpp) ----
 
-struct Profile {
-  const char* name;
-  double face_deg, face_end, radius, runout_deg, release_from, release_to;
-  double centre() const { return face_end + radius * std::sin(face_deg * kDeg); }
-  double bend_end() const { return centre() - radius * std::sin(runout_deg * kDeg); }
-  double ground(double x) const {
-    const double z_face_end = kZ0 - std::tan(face_deg * kDeg) * face_end;
-    const double zc = z_face_end + radius * std::cos(face_deg * kDeg), xc = centre();
-    if (x <= face_end) return kZ0 - std::tan(face_deg * kDeg) * x;
-    if (x <= bend_end()) return zc - std::sqrt(radius * radius - (x - xc) * (x - xc));
-    return zc - radius * std::cos(runout_deg * kDeg) - std::tan(runout_deg * kDeg) * (x - bend_end());
-  }
-  double curvature(double x) const { return x > face_end && x <= bend_end() ? 1.0 / radius : 0.0; }
-};
+using Profile = runout_test::BendProfile;
 constexpr double kLength = 240.0, kWidth = 80.0, kPhiDeg = 20.0;
-const Profile kSceneA{"a", 30, 60, 120, 10, 10, 30};
-const Profile kSceneB{"b", 35, 50, 60, 10, 5, 25};
+const Profile& kSceneA = runout_test::kBendA;
+const Profile& kSceneB = runout_test::kBendB;
 
-double block_reach(const Profile& p, double x0, double mu) {
-  const double dx = 1e-3;
-  double e = 0, x = x0;
-  while (x < kLength) {
-    const double slope = (p.ground(x) - p.ground(x + dx)) / dx, cos_t = 1 / std::sqrt(1 + slope * slope);
-    e += (kG * slope - mu * kG - mu * 2 * e * p.curvature(x + 0.5 * dx) / cos_t) * dx;
-    x += dx;
-    if (e <= 0 && x > x0 + 1) break;
-  }
-  return x - x0;
-}
+double block_reach(const Profile& p, double x0, double mu) { return runout_test::block_reach(p, x0, mu, kLength, kG); }
 
 json bend_scene(const Profile& p) {
   const double y0 = 0.5 * kWidth - 6, y1 = 0.5 * kWidth + 6;
