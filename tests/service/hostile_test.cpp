@@ -10,6 +10,15 @@ using namespace runout_test;
 
 namespace {
 
+// An /estimate body: the shipped flume for 0.05 s at dp 0.06 m, its DEM at `dem`.
+json flume_with_dem(const std::string& dem) {
+  std::ifstream in(RUNOUT_SOURCE_DIR "/scenarios/flume/flume.json");
+  json s = json::parse(in);
+  s["duration"] = 0.05;
+  s["terrain"]["dem"] = dem;
+  return json{{"base", s}, {"structures", json::array()}, {"fidelity", {{"dp", 0.06}}}};
+}
+
 const std::string kToken = "hostile-test-token";
 
 std::string post_head(const std::string& path, const std::string& extra) {
@@ -170,24 +179,16 @@ TEST_F(Hostile, SceneFilesMustResolveInsideTheSceneDirAndErrorsShowNoServerPaths
   fs::create_directory_symlink(outside, scenes / "sub");
   fs::create_symlink("/etc/passwd", scenes / "passwd.asc");
   start({"--workers", "0", "--scene-dir", scenes.string()});
-  std::ifstream in(flume / "flume.json");
-  json scene = json::parse(in);
-  scene["duration"] = 0.05;
-  auto with_dem = [&](const std::string& dem) {
-    json s = scene;
-    s["terrain"]["dem"] = dem;
-    return json{{"base", s}, {"structures", json::array()}, {"fidelity", {{"dp", 0.06}}}};
-  };
   for (const std::string dem : {"link.asc", "sub/dem.asc", "passwd.asc"}) {
-    const Reply r = post("/estimate", with_dem(dem));
+    const Reply r = post("/estimate", flume_with_dem(dem));
     EXPECT_EQ(r.status, 422) << dem << ": " << r.text.substr(0, 300);
     EXPECT_EQ(first_error(r.body).at("field"), "base.terrain.dem") << dem;
     EXPECT_NE(r.text.find("outside the service's scene directory"), std::string::npos) << r.text.substr(0, 300);
   }
-  const Reply ok = post("/estimate", with_dem("inside.asc"));
+  const Reply ok = post("/estimate", flume_with_dem("inside.asc"));
   EXPECT_EQ(ok.status, 200) << ok.text.substr(0, 300);
   // A missing file: named as the client wrote it, relative to the scene directory, never by a server path.
-  const Reply missing = post("/estimate", with_dem("missing.asc"));
+  const Reply missing = post("/estimate", flume_with_dem("missing.asc"));
   EXPECT_EQ(missing.status, 422) << missing.text.substr(0, 300);
   EXPECT_NE(missing.text.find("missing.asc"), std::string::npos) << missing.text;
   EXPECT_EQ(missing.text.find(dir_.string()), std::string::npos) << missing.text;
@@ -460,19 +461,11 @@ TEST_F(Hostile, ADanglingRelativeLinkInTheSceneDirIsRefused) {
   fs::create_symlink("inside.asc", scenes / "good.asc");  // a link that resolves inside is fine
   fs::create_symlink("inside.prj", scenes / "good.prj");  // (its CRS)
   start({"--workers", "0", "--scene-dir", scenes.string()});
-  std::ifstream in(flume / "flume.json");
-  json scene = json::parse(in);
-  scene["duration"] = 0.05;
-  auto with_dem = [&](const std::string& dem) {
-    json s = scene;
-    s["terrain"]["dem"] = dem;
-    return json{{"base", s}, {"structures", json::array()}, {"fidelity", {{"dp", 0.06}}}};
-  };
-  const Reply r = post("/estimate", with_dem("link.asc"));
+  const Reply r = post("/estimate", flume_with_dem("link.asc"));
   EXPECT_EQ(r.status, 422) << r.text.substr(0, 300);
   EXPECT_EQ(first_error(r.body).at("field"), "base.terrain.dem") << r.text.substr(0, 300);
   EXPECT_NE(r.text.find("outside the service's scene directory"), std::string::npos) << r.text.substr(0, 300);
-  const Reply good = post("/estimate", with_dem("good.asc"));
+  const Reply good = post("/estimate", flume_with_dem("good.asc"));
   EXPECT_EQ(good.status, 200) << good.text.substr(0, 300);
 }
 
