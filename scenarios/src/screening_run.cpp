@@ -30,7 +30,7 @@ namespace da = depth_averaged;
 // lower; a basin's wall) raised to its wall's top, so flow is held below a crest and overtops above it. Off
 // the corridor the DEM itself (the corridor's edge is where the 3D run's model ends; the particles that
 // cross it are counted out, as there). Bed::grid's rows run south to north, the terrain grids' north to south.
-da::Bed terrain_bed(const terrain::TerrainModel& tm) {
+da::Bed terrain_bed(const terrain::TerrainModel& tm, real curvature_scale) {
   const terrain::Grid& bed = tm.bed;
   const int nx = bed.nx, ny = bed.ny;
   std::vector<real> z(static_cast<size_t>(nx) * ny);
@@ -62,7 +62,8 @@ da::Bed terrain_bed(const terrain::TerrainModel& tm) {
     z.swap(next);
     if (missing && !filled) throw SceneError("terrain.dem", "no elevation anywhere over the corridor");
   }
-  return da::Bed::grid(bed.cx(0) - tm.origin_x, bed.cy(ny - 1) - tm.origin_y, bed.dx, bed.dy, nx, ny, std::move(z));
+  return da::Bed::grid(bed.cx(0) - tm.origin_x, bed.cy(ny - 1) - tm.origin_y, bed.dx, bed.dy, nx, ny, std::move(z),
+                       curvature_scale);
 }
 
 // The block release at the screening spacing: lattice points inside release.polygon, each carrying an equal
@@ -412,7 +413,7 @@ RunSummary run_screening(const Scene& scene, const RunOptions& opt) {
   da::Particles start = hydrograph ? da::Particles{} : release_particles(scene_json, tm, s.spacing, released);
   const size_t n = start.size();
   const auto& g = setup.config.gravity;
-  da::Model model(s.config(std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])), terrain_bed(tm), std::move(start));
+  da::Model model(s.config(std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])), terrain_bed(tm, s.kernel_ratio() * s.spacing), std::move(start));
   ScreeningWatch watch(tm, s, scene.output, n);
   watch.sample(model);
   ScreeningGauges gauges(scene, scene_json, s, model);

@@ -43,8 +43,32 @@ struct GridBed {
 
   real at(const std::vector<real>& f, int i, int j) const { return f[static_cast<size_t>(i) + nx * static_cast<size_t>(j)]; }
 
-  // Differences between nodes i-1 and i+1 (one-sided at the edges): exact for planes and quadratics inside.
-  void differentiate() {
+  // A separable Gaussian of standard deviation sigma [m] over the nodes (truncated at 3 sigma, renormalised at
+  // the edges).
+  std::vector<real> smoothed(const std::vector<real>& f, real sigma) const {
+    std::vector<real> tmp(f.size()), out(f.size());
+    auto pass = [&](const std::vector<real>& in, std::vector<real>& res, int axis) {
+      const real h = axis == 0 ? dx : dy;
+      const int r = std::max(1, static_cast<int>(std::ceil(3 * sigma / h))), m = axis == 0 ? nx : ny;
+      for (int j = 0; j < ny; ++j)
+        for (int i = 0; i < nx; ++i) {
+          const int k = axis == 0 ? i : j;
+          real sum = 0, w = 0;
+          for (int o = std::max(0, k - r); o <= std::min(m - 1, k + r); ++o) {
+            const real wo = std::exp(-0.5 * std::pow((o - k) * h / sigma, 2));
+            sum += wo * (axis == 0 ? at(in, o, j) : at(in, i, o)), w += wo;
+          }
+          res[i + nx * static_cast<size_t>(j)] = sum / w;
+        }
+    };
+    pass(f, tmp, 0);
+    pass(tmp, out, 1);
+    return out;
+  }
+
+  // Differences between nodes i-1 and i+1 (one-sided at the edges): exact for planes and quadratics inside. The
+  // Hessian from the grid smoothed at curvature_scale when it is positive.
+  void differentiate(real curvature_scale) {
     const size_t n = z.size();
     zx.assign(n, 0), zy.assign(n, 0), zxx.assign(n, 0), zxy.assign(n, 0), zyy.assign(n, 0);
     auto d = [&](const std::vector<real>& f, int i, int j, int axis) {
@@ -59,12 +83,21 @@ struct GridBed {
         zx[i + nx * static_cast<size_t>(j)] = d(z, i, j, 0);
         zy[i + nx * static_cast<size_t>(j)] = d(z, i, j, 1);
       }
+    std::vector<real> sx = zx, sy = zy;
+    if (curvature_scale > 0) {
+      const std::vector<real> zs = smoothed(z, curvature_scale);
+      for (int j = 0; j < ny; ++j)
+        for (int i = 0; i < nx; ++i) {
+          sx[i + nx * static_cast<size_t>(j)] = d(zs, i, j, 0);
+          sy[i + nx * static_cast<size_t>(j)] = d(zs, i, j, 1);
+        }
+    }
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i) {
         const size_t k = i + nx * static_cast<size_t>(j);
-        zxx[k] = d(zx, i, j, 0);
-        zyy[k] = d(zy, i, j, 1);
-        zxy[k] = 0.5 * (d(zx, i, j, 1) + d(zy, i, j, 0));
+        zxx[k] = d(sx, i, j, 0);
+        zyy[k] = d(sy, i, j, 1);
+        zxy[k] = 0.5 * (d(sx, i, j, 1) + d(sy, i, j, 0));
       }
   }
 
@@ -88,14 +121,14 @@ struct GridBed {
 
 }  // namespace
 
-Bed Bed::grid(real x0, real y0, real dx, real dy, int nx, int ny, std::vector<real> z) {
+Bed Bed::grid(real x0, real y0, real dx, real dy, int nx, int ny, std::vector<real> z, real curvature_scale) {
   if (nx < 2 || ny < 2) throw std::invalid_argument("Bed::grid: needs at least 2 x 2 nodes");
   if (z.size() != static_cast<size_t>(nx) * static_cast<size_t>(ny))
     throw std::invalid_argument("Bed::grid: " + std::to_string(z.size()) + " values for " + std::to_string(nx) +
                                 " x " + std::to_string(ny) + " nodes");
   if (!(dx > 0 && dy > 0)) throw std::invalid_argument("Bed::grid: spacing must be positive");
   auto g = std::make_shared<GridBed>(GridBed{x0, y0, dx, dy, nx, ny, std::move(z), {}, {}, {}, {}, {}});
-  g->differentiate();
+  g->differentiate(curvature_scale);
   return Bed([g](real x, real y) { return g->sample(x, y); });
 }
 

@@ -47,7 +47,10 @@ class Bed {
   // Elevation bilinear between nodes; the gradient and Hessian bilinear between their nodal central
   // differences (one-sided at the edges), so the slope is continuous across cells. Outside the grid the edge
   // value's plane is extended. Throws std::invalid_argument for fewer than 2 x 2 nodes or a size mismatch.
-  static Bed grid(real x0, real y0, real dx, real dy, int nx, int ny, std::vector<real> z);
+  // curvature_scale > 0 takes the Hessian (the bend's centripetal load) from the grid smoothed by a Gaussian of
+  // that standard deviation [m]: the curvature the flow feels at its own scale, not the DEM's metre-scale
+  // roughness, which the load's floor at zero normal stress would turn into friction on average.
+  static Bed grid(real x0, real y0, real dx, real dy, int nx, int ny, std::vector<real> z, real curvature_scale = 0);
 
   BedSample sample(real x, real y) const { return f_(x, y); }
 
