@@ -220,8 +220,9 @@ bool cost_observation_from_metrics(const std::string& metrics_json, CostObservat
   } catch (const nlohmann::json::exception&) {
     return false;
   }
-  // A stopped or failed run ran only part of its duration.
-  return j.value("status", std::string()) == "completed";
+  // A stopped or failed run ran only part of its duration; a run whose team changed (it shared the cores
+  // with other runs for part of it) is no sample of one thread count's speed.
+  return j.value("status", std::string()) == "completed" && !j.contains("threads_least");
 }
 
 }  // namespace runout

@@ -23,6 +23,7 @@
 #include "runout/terrain/vector.hpp"
 #include "hazard_outputs.hpp"
 #include "run_outputs.hpp"
+#include "run_threads.hpp"
 #include "screening_run.hpp"
 
 namespace runout {
@@ -516,18 +517,20 @@ class Snapshots {
   real next_ = 0;
 };
 
-// The run's wall clock, and opt.on_progress about every 0.25 s of it.
+// The run's wall clock, opt.on_progress and the OpenMP team's size (opt.threads_now) about every 0.25 s of it.
 class Progress {
  public:
   using clock = std::chrono::steady_clock;
-  explicit Progress(const RunOptions& opt) : opt_(opt), t0_(clock::now()), last_(t0_) {}
+  Progress(const RunOptions& opt, RunThreads& team) : opt_(opt), t0_(clock::now()), last_(t0_), team_(team) {}
   double elapsed() const { return std::chrono::duration<double>(clock::now() - t0_).count(); }
   template <int D>
   void during(const Solver<D>& s, real duration) {
     const auto now = clock::now();
-    if (opt_.on_progress && now - last_ > std::chrono::milliseconds(250)) {
+    if (now - last_ > std::chrono::milliseconds(250)) {
       last_ = now;
-      opt_.on_progress({s.time(), duration, s.steps(), std::chrono::duration<double>(now - t0_).count(), s.fluid().size()});
+      team_.follow(opt_);
+      if (opt_.on_progress)
+        opt_.on_progress({s.time(), duration, s.steps(), std::chrono::duration<double>(now - t0_).count(), s.fluid().size()});
     }
   }
   template <int D>
@@ -538,6 +541,7 @@ class Progress {
  private:
   const RunOptions& opt_;
   clock::time_point t0_, last_;
+  RunThreads& team_;
 };
 
 // The scene a checkpoint belongs to: its canonical JSON without the prose description (as the manifest hash).
@@ -874,7 +878,6 @@ json run_metrics(const Scene& scene, const Solver<D>& solver, const RunSummary& 
   m["simulated_time_s"] = sum.simulated_time;
   m["wall_time_s"] = sum.wall_seconds;
   m["particle_steps_per_s"] = sum.particle_steps_per_second;
-  m["threads"] = omp_get_max_threads();
   m["cost_features"] = cost_feature_metrics(scene);
   m["dt"] = {{"min_s", solver.min_dt_seen() < 1e299 ? solver.min_dt_seen() : 0.0}, {"last_s", solver.last_step().dt}};
   m["max_mach"] = solver.max_mach();
@@ -935,14 +938,15 @@ void add_terrain_metrics(json& m, const Scene& scene, const TerrainWatch<D>& wat
 
 template <int D>
 RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOptions& opt) {
-  if (opt.threads > 0) omp_set_num_threads(opt.threads);
   // The series are written whole at the end (a resumed run's from its checkpoint's state), so nothing in the folder
   // is this run's yet: clear it, or a monitor of an earlier run into this folder would outlive it.
   fs::remove_all(opt.out_dir / "series");
   fs::create_directories(opt.out_dir / "series");
 
+  RunThreads team;
+  team.follow(opt);
   Solver<D> solver(setup);
-  Progress progress(opt);
+  Progress progress(opt, team);
   TerrainWatch<D> watch(scene.terrain.get(), scene.output.inundation_threshold);
   RunSeries<D> series(scene, solver);
   Snapshots<D> snapshots(scene, opt);
@@ -975,6 +979,7 @@ RunSummary run_typed(const Scene& scene, const SceneSetup<D>& setup, const RunOp
   series.write(opt.out_dir / "series");
   json m = run_metrics(scene, solver, sum, counts, series.max_ke_excess());
   m["centre_of_mass"] = centre_of_mass_metrics(solver.fluid(), loop.com_start);
+  add_thread_metrics(m, team);
   if (loop.resumed_from >= 0) m["resumed"] = {{"from_s", loop.resumed_from}, {"sessions", loop.sessions}};
   if (!checkpoint.failures().empty()) m["warnings"].push_back(checkpoint.failures());
   m["monitors"] = series.summaries();

@@ -15,6 +15,7 @@
 #include "runout/engine/kernels.hpp"
 #include "runout/terrain/terrain.hpp"
 #include "run_outputs.hpp"
+#include "run_threads.hpp"
 #include "screening_gauges.hpp"
 #include "screening_run.hpp"
 
@@ -301,7 +302,7 @@ class Inflow {
 // (output.rest_speed: a share rest_quantile of the flow under it for rest_time, tested at each sample).
 std::string step_to_end(const Scene& scene, const ScreeningSettings& s, const RunOptions& opt, da::Model& model,
                         ScreeningWatch& watch, ScreeningGauges& gauges, Inflow* inflow, double& released,
-                        RunSummary& sum) {
+                        RunSummary& sum, RunThreads& team) {
   const auto t0 = std::chrono::steady_clock::now();
   auto last = t0;
   real rest_since = -1;
@@ -336,10 +337,12 @@ std::string step_to_end(const Scene& scene, const ScreeningSettings& s, const Ru
       }
     }
     const auto now = std::chrono::steady_clock::now();
-    if (opt.on_progress && now - last > std::chrono::milliseconds(250)) {
+    if (now - last > std::chrono::milliseconds(250)) {
       last = now;
-      opt.on_progress({model.time(), scene.duration, static_cast<long>(model.steps()),
-                       std::chrono::duration<double>(now - t0).count(), model.particles().size()});
+      team.follow(opt);
+      if (opt.on_progress)
+        opt.on_progress({model.time(), scene.duration, static_cast<long>(model.steps()),
+                         std::chrono::duration<double>(now - t0).count(), model.particles().size()});
     }
   }
   return "completed";
@@ -360,7 +363,6 @@ json run_metrics(const Scene& scene, const ScreeningSettings& s, const da::Model
   j["simulated_time_s"] = sum.simulated_time;
   j["wall_time_s"] = sum.wall_seconds;
   j["particle_steps_per_s"] = sum.particle_steps_per_second;
-  j["threads"] = omp_get_max_threads();
   if (scene.output.rest_speed > 0)
     j["rest"] = {{"speed_m_s", scene.output.rest_speed},
                  {"time_s", scene.output.rest_time},
@@ -400,7 +402,8 @@ json run_metrics(const Scene& scene, const ScreeningSettings& s, const da::Model
 }  // namespace
 
 RunSummary run_screening(const Scene& scene, const RunOptions& opt) {
-  if (opt.threads > 0) omp_set_num_threads(opt.threads);
+  RunThreads team;
+  team.follow(opt);
   const json scene_json = json::parse(scene.canonical_json);
   const ScreeningSettings s = screening_settings(scene_json, scene);
   const terrain::TerrainModel& tm = *scene.terrain;
@@ -424,7 +427,7 @@ RunSummary run_screening(const Scene& scene, const RunOptions& opt) {
   RunSummary sum;
   const auto t0 = std::chrono::steady_clock::now();
   try {
-    sum.status = step_to_end(scene, s, opt, model, watch, gauges, inflow.get(), released, sum);
+    sum.status = step_to_end(scene, s, opt, model, watch, gauges, inflow.get(), released, sum, team);
   } catch (const SimulationError& e) {
     sum.status = "failed";
     sum.error = e.what();
@@ -438,6 +441,7 @@ RunSummary run_screening(const Scene& scene, const RunOptions& opt) {
   run_outputs::write_file_atomically(opt.out_dir / "series" / "run.csv", watch.csv());
   gauges.write(opt.out_dir / "series");
   json m = run_metrics(scene, s, model, watch, sum, released, n, inflow.get());
+  add_thread_metrics(m, team);
   m["monitors"] = gauges.sections();
   for (const auto& what : gauges.skipped())
     m["warnings"].push_back(what + ": not sampled by the screening model (section monitors are; a check dam's load "

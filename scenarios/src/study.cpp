@@ -1,4 +1,5 @@
 #include "runout/scenarios/study.hpp"
+#include "runout/scenarios/thread_share.hpp"
 
 #include <omp.h>
 
@@ -89,7 +90,7 @@ SweepResult run_sweep(RunStore& store, const Sweep& sweep, const SweepOptions& o
   for (auto& r : result.runs) r.status = "not run";
 
   const int jobs = std::clamp(options.jobs, 1, static_cast<int>(std::max<size_t>(n, 1)));
-  const int threads = options.threads > 0 ? options.threads : std::max(1, omp_get_num_procs() / jobs);
+  ThreadShare share(omp_get_num_procs());  // without --threads, the layouts going at once divide the cores
   const fs::path base_dir = sweep.base_path.parent_path();
   std::mutex event_mutex;
   auto emit = [&](const SweepEvent& e) {
@@ -111,7 +112,9 @@ SweepResult run_sweep(RunStore& store, const Sweep& sweep, const SweepOptions& o
       o.variant = v.name;
       o.fidelity = fidelity;
       o.run.out_dir = options.out_root / sweep.name / v.name;
-      o.run.threads = threads;
+      ThreadShare::Lease lease(share);
+      o.run.threads = options.threads;
+      if (options.threads <= 0) o.run.threads_now = lease.threads_now();
       o.run.stop = options.stop;
       o.run.checkpoint_interval = options.checkpoint_interval;
       o.run.on_progress = [&, k](const RunProgress& p) {

@@ -136,7 +136,7 @@ Action add_serve(CLI::App& app) {
   bounded(cmd, "--port", o.port, "Port (0: any free port, printed on stdout)", 0, 65535);
   cmd->add_option("--db", a->db, "Run store and job queue (SQLite)")->capture_default_str();
   bounded(cmd, "--workers", o.workers, "Jobs run at once (0: queue only)", 0, 64);
-  cmd->add_option("--threads-per-job", o.threads_per_job, "OpenMP threads per job (0: cores / workers)")
+  cmd->add_option("--threads-per-job", o.threads_per_job, "OpenMP threads per job (0: the cores divided among the jobs running)")
       ->check(CLI::Range(0, 1024));
   bounded(cmd, "--checkpoint-every", o.checkpoint_interval,
           "Seconds of wall time between a running job's checkpoints; a restarted service resumes the job from "

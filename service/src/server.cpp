@@ -194,7 +194,9 @@ void Server::Impl::run_job(const Job& job) {
   o.fidelity.name = job.fidelity;
   o.fidelity.dp = job.dp;
   o.run.out_dir = job.out_dir;
+  ThreadShare::Lease lease(cores);
   o.run.threads = threads_per_job;
+  if (opt.threads_per_job <= 0) o.run.threads_now = lease.threads_now();
   o.run.stop = &flags->stop;
   o.run.checkpoint_interval = opt.checkpoint_interval;
   auto last = Clock::now();

@@ -19,7 +19,7 @@ struct ServeOptions {
   std::filesystem::path runs_dir = "runs";  // a job's outputs go to RUNS/service/job-<id>
   std::filesystem::path scene_dir = ".";    // relative file names in scenes (terrain.dem) resolve here
   int workers = 1;               // 0: accept and queue jobs, run none
-  int threads_per_job = 0;       // OpenMP threads of one job; 0: the cores divided among the workers
+  int threads_per_job = 0;       // OpenMP threads of one job; 0: the cores divided among the jobs running
   // A running job saves its state every this many seconds of wall time and when the service stops, so a
   // restarted service resumes it where it was (RunOptions::checkpoint_interval); 0: a requeued job starts over.
   double checkpoint_interval = 300;

@@ -4,6 +4,8 @@
 // nlohmann-json, which server.hpp keeps out.
 #include "server.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
@@ -25,6 +27,7 @@
 #include "requests.hpp"
 #include "runout/scenarios/store.hpp"
 #include "runout/scenarios/study.hpp"
+#include "runout/scenarios/thread_share.hpp"
 #include "sweep_launcher.hpp"
 #include "web_files.hpp"
 
@@ -281,7 +284,8 @@ struct Server::Impl {
   };
   std::map<int64_t, std::shared_ptr<Running>> running;  // job id -> its stop flags (under mutex)
   std::atomic<int> busy{0};
-  int threads_per_job = 1;
+  int threads_per_job = 1;  // the planning figure (estimates, ETA): --threads-per-job, else cores / workers
+  ThreadShare cores{omp_get_num_procs()};  // without --threads-per-job, running jobs divide the cores between them
   std::unique_ptr<SweepLauncher> launcher;  // RUNOUT_SWEEP_LAUNCHER: sweeps go to an MPI launch command
 
   void add(const std::string& pattern, const std::string& method, Handler h) {

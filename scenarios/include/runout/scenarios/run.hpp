@@ -26,6 +26,9 @@ struct RunOptions {
   std::filesystem::path out_dir;
   bool snapshots = false;
   int threads = 0;  // 0: OpenMP default
+  // When set, the run's OpenMP threads follow it, read again about every 0.25 s of wall time (a ThreadShare's
+  // lease: the cores divided among the runs going at once); `threads` is then ignored.
+  std::function<int()> threads_now;
   std::function<void(const RunProgress&)> on_progress;  // called about every 0.25 s of wall time
   const std::atomic<bool>* stop = nullptr;              // set to stop early (the run is marked "stopped")
   // Checkpoints (docs/design.md, "Checkpoints"): with an interval > 0 the run saves its whole state to
