@@ -138,7 +138,7 @@ SweepResult run_sweep(RunStore& store, const Sweep& sweep, const SweepOptions& o
   worker();
   for (auto& t : pool) t.join();
   if (!(options.stop && options.stop->load()))
-    result.differences = write_difference_rasters(options.out_root / sweep.name, result.variants);
+    result.differences = write_sweep_differences(options.out_root / sweep.name, sweep);
   return result;
 }
 

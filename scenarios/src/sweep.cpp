@@ -66,6 +66,47 @@ void apply_fidelity(json& j, const Fidelity& fidelity) {
     for (auto it = preset["numerics"].begin(); it != preset["numerics"].end(); ++it) j["numerics"][it.key()] = it.value();
 }
 
+// Every layout with every member, member by member (a member's layouts finish together, so a partial ensemble
+// still compares layouts), named LAYOUT-eNNN. The members holding each parameter's smallest and largest value
+// are checked as scenes now (the scene's own ranges: a sampled friction angle of 95 degrees is refused before
+// anything runs); checking every member would parse the DEM hundreds of times.
+std::vector<SweepVariant> expand_ensemble(const Sweep& sw, const Ensemble& e) {
+  const auto members = ensemble_members(e);
+  const int digits = std::max<int>(3, static_cast<int>(std::to_string(members.size() - 1).size()));
+  std::vector<SweepVariant> out;
+  for (size_t m = 0; m < members.size(); ++m)
+    for (const auto& layout : sw.variants) {
+      SweepVariant v = layout;
+      std::string index = std::to_string(m);
+      v.name = layout.name + "-e" + std::string(digits - std::min<int>(digits, index.size()), '0') + index;
+      v.layout = layout.name;
+      v.member = static_cast<int>(m);
+      v.parameters = members[m];
+      out.push_back(std::move(v));
+    }
+  std::set<size_t> extremes;
+  for (size_t p = 0; p < e.parameters.size(); ++p) {
+    size_t lo = 0, hi = 0;
+    for (size_t m = 0; m < members.size(); ++m) {
+      if (members[m][p].value < members[lo][p].value) lo = m;
+      if (members[m][p].value > members[hi][p].value) hi = m;
+    }
+    extremes.insert(lo), extremes.insert(hi);
+  }
+  for (size_t m : extremes) {
+    const SweepVariant& v = out[m * sw.variants.size()];
+    try {
+      (void)parse_scene(resolve_variant(sw.base_json, v, sw.fidelity), sw.base_path.parent_path());
+    } catch (const SceneError& err) {
+      std::string values;
+      for (const auto& pv : v.parameters) values += (values.empty() ? "" : ", ") + pv.pointer + " = " + std::to_string(pv.value);
+      throw SceneError("ensemble member " + std::to_string(m) + " (" + values + "): " + err.field,
+                       std::string(err.what()).substr(err.field.size() + 2));
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 const std::vector<std::string>& fidelity_names() {
@@ -104,10 +145,10 @@ Sweep parse_sweep(const std::string& json_text, const std::filesystem::path& bas
     throw SceneError("(json)", std::string("malformed JSON: ") + e.what());
   }
   if (!j.is_object()) throw SceneError("(root)", "a sweep must be a JSON object");
-  const std::set<std::string> allowed = {"name", "description", "base", "fidelity", "variants", "factorial"};
+  const std::set<std::string> allowed = {"name", "description", "base", "fidelity", "variants", "factorial", "ensemble"};
   for (auto it = j.begin(); it != j.end(); ++it)
     if (!allowed.count(it.key()))
-      throw SceneError(it.key(), "unknown field (accepted: base, description, factorial, fidelity, name, variants)");
+      throw SceneError(it.key(), "unknown field (accepted: base, description, ensemble, factorial, fidelity, name, variants)");
   Sweep sw;
   sw.name = j.value("name", std::string("sweep"));
   if (!j.contains("base") || !j["base"].is_string()) throw SceneError("base", "missing (required: the base scene file)");
@@ -188,6 +229,8 @@ Sweep parse_sweep(const std::string& json_text, const std::filesystem::path& bas
                        std::string(e.what()).substr(e.field.size() + 2));
     }
   }
+  for (auto& v : sw.variants) v.layout = v.name;
+  if (j.contains("ensemble")) sw.variants = expand_ensemble(sw, parse_ensemble(j["ensemble"].dump(), sw.base_json));
   return sw;
 }
 
@@ -217,6 +260,7 @@ std::string resolve_variant(const std::string& base_json, const SweepVariant& va
     }
     j["monitors"] = ms;
   }
+  for (const auto& p : variant.parameters) j[json::json_pointer(p.pointer)] = p.value;
   apply_fidelity(j, fidelity);
   j["name"] = j.value("name", std::string("scene")) + "/" + variant.name;
   return j.dump();

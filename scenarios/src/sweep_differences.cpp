@@ -2,6 +2,7 @@
 // (study.hpp, write_difference_rasters; docs/terrain.md "Hazard outputs").
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <sstream>
 
 #include "hazard_outputs.hpp"
@@ -49,6 +50,15 @@ std::vector<std::string> write_difference_rasters(const fs::path& sweep_dir, con
     }
     if (all) written.push_back(variants[k]);
   }
+  return written;
+}
+
+std::vector<std::string> write_sweep_differences(const fs::path& sweep_dir, const Sweep& sweep) {
+  std::map<int, std::vector<std::string>> groups;  // member -> its variants, in the sweep's order
+  for (const auto& v : sweep.variants) groups[v.member].push_back(v.name);
+  std::vector<std::string> written;
+  for (const auto& [member, names] : groups)
+    for (auto& w : write_difference_rasters(sweep_dir, names)) written.push_back(std::move(w));
   return written;
 }
 

@@ -377,7 +377,7 @@ class Coordinator {
     shutdown_workers();
     // The workers wrote their rasters under the same output root (a shared file system, as for the store's
     // outputs): the differences against the baseline are rank 0's, as a single-process sweep's are.
-    if (!stopping_) result_.differences = write_difference_rasters(options_.out_root / sweep_.name, result_.variants);
+    if (!stopping_) result_.differences = write_sweep_differences(options_.out_root / sweep_.name, sweep_);
     return result_;
   }
 

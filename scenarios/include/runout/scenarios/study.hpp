@@ -88,5 +88,8 @@ SweepResult run_sweep(RunStore& store, const Sweep& sweep, const SweepOptions& o
 // the baseline's are not in SWEEP_DIR (not run here) is skipped. Returns the variants written.
 std::vector<std::string> write_difference_rasters(const std::filesystem::path& sweep_dir,
                                                   const std::vector<std::string>& variants);
+// The same for every group of a sweep that shares a baseline: the whole sweep, or, in an ensemble, each member's
+// layouts against that member's first layout (the baseline at the same material and volume).
+std::vector<std::string> write_sweep_differences(const std::filesystem::path& sweep_dir, const Sweep& sweep);
 
 }  // namespace runout

@@ -3,6 +3,7 @@
 // file names either explicit variants (the flume's C0-C7 are not a full factorial) or a factorial over
 // named structures (the catchment's G0-G7: every subset of Dam1-Dam3, numbered as in the study).
 // docs/scene-format.md ("Sweeps") describes the file.
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -18,9 +19,19 @@ struct Fidelity {
 };
 const std::vector<std::string>& fidelity_names();
 
+// One value an ensemble member gives a number of the base scene: a JSON pointer ("/materials/0/friction_angle")
+// and the value written there.
+struct ParameterValue {
+  std::string pointer;
+  double value = 0;
+};
+
 struct SweepVariant {
-  std::string name;                     // "C3", "G5"
+  std::string name;                     // "C3", "G5"; an ensemble's member "G5-e017"
   std::vector<std::string> structures;  // candidate structures of the base scene that are built
+  std::vector<ParameterValue> parameters;  // an ensemble member's values (none for a plain layout)
+  std::string layout;                   // the layout's name ("G5"); the variant's own name when no ensemble
+  int member = -1;                      // the ensemble member's index; -1: no ensemble
 };
 
 struct Sweep {
@@ -30,6 +41,29 @@ struct Sweep {
   Fidelity fidelity;                // the sweep's default (the CLI may override)
   std::vector<SweepVariant> variants;
 };
+
+// An ensemble (docs/scene-format.md, "Ensembles"): numbers of the base scene varied over members, each member run
+// with every layout. Listed values and ranges make a grid; distributions are sampled by a Latin hypercube of
+// `members` points from `seed`, so an ensemble repeats bit for bit; members = grid points x samples.
+struct EnsembleParameter {
+  std::string pointer;          // JSON pointer into the base scene; the number there is replaced
+  std::vector<double> values;   // a list, or a range's evenly spaced points (the grid's axis)
+  std::string distribution;     // "" (grid) | uniform | normal | lognormal | triangular
+  double a = 0, b = 0, c = 0;   // uniform min max; normal mean sd; lognormal median sd_log; triangular min mode max
+};
+struct Ensemble {
+  std::vector<EnsembleParameter> parameters;
+  size_t samples = 1;   // Latin-hypercube points (1 without distributions)
+  uint64_t seed = 1;
+};
+// Parses the sweep file's "ensemble" object (throws SceneError naming the field, e.g.
+// "ensemble.parameters[1].sd"); each pointer must name a number of `base`.
+Ensemble parse_ensemble(const std::string& ensemble_json, const std::string& base_json);
+// The members' values, grid-major: member k = grid point k / samples, sample k % samples.
+std::vector<std::vector<ParameterValue>> ensemble_members(const Ensemble& e);
+// n points of a d-dimensional Latin hypercube in (0, 1): in each dimension, one point in each of the n strata
+// [k/n, (k+1)/n). From std::mt19937_64, with the draws converted by hand so every platform gives the same points.
+std::vector<std::vector<double>> latin_hypercube(size_t n, size_t d, uint64_t seed);
 
 // Parses and validates a sweep (throws SceneError naming the field): the base scene must parse, every
 // variant's structures must be candidates of the base scene, names unique.
