@@ -110,6 +110,16 @@ def render(layers, extent, crs, width, title):
     return image
 
 
+def draw(args):
+    layers, summary = styled_layers(args.run_dir, args.dem, args.zones, args.hillshade)
+    dem = layers[-1]
+    image = render(layers, QgsRectangle(dem.extent()), dem.crs(), args.width, args.title)
+    if not image.save(args.out):
+        raise SystemExit(f"--out: cannot write {args.out}")
+    summary["image"] = {"path": args.out, "width": image.width(), "height": image.height()}
+    return summary
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("run_dir")
@@ -122,16 +132,10 @@ def main():
     args = ap.parse_args()
     app = QgsApplication([], False)
     app.initQgis()
-    layers, summary = styled_layers(args.run_dir, args.dem, args.zones, args.hillshade)
-    dem = layers[-1]
-    extent = QgsRectangle(dem.extent())
-    image = render(layers, extent, dem.crs(), args.width, args.title)
-    if not image.save(args.out):
-        raise SystemExit(f"--out: cannot write {args.out}")
-    summary["image"] = {"path": args.out, "width": image.width(), "height": image.height()}
+    summary = draw(args)
     json.dump(summary, sys.stdout)
     print()
-    app.exitQgis()
+    app.exitQgis()  # after the layers are gone: PyQGIS crashes at exit when layers outlive the registry
 
 
 if __name__ == "__main__":
