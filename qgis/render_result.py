@@ -14,6 +14,9 @@ import json
 import os
 import sys
 
+# QGIS's grey stretch computes the DEM's statistics; without this GDAL saves them in an .aux.xml beside the DEM
+os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
+
 from qgis.core import (QgsApplication, QgsHillshadeRenderer, QgsMapRendererCustomPainterJob, QgsMapSettings,
                        QgsRasterLayer, QgsRectangle, QgsVectorLayer)
 from qgis.PyQt.QtCore import QSize, Qt

@@ -267,9 +267,10 @@ class RunSceneAlgorithm(QgsProcessingAlgorithm):
     def _results(self, out_dir, scene_path, name, context, feedback):
         metrics_path = os.path.join(out_dir, "metrics.json")
         with open(metrics_path, encoding="utf-8") as f:
-            status = json.load(f).get("status")
+            m = json.load(f)
+        status = m.get("status")
         if status != "completed":
-            raise QgsProcessingException(f"the run {status}: see {metrics_path} (error)")
+            raise QgsProcessingException(f"the run {status}: {m.get('error', '')} ({metrics_path})")
         rasters = os.path.join(out_dir, "rasters")
         hazard = os.path.join(rasters, "hazard.gpkg")
         results = {"OUTPUT": out_dir, "SCENE": scene_path, "METRICS": metrics_path, "STATUS": status,

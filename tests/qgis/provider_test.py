@@ -46,7 +46,8 @@ def qt_env(work):
     """Qt offscreen, with a runtime directory of its own (Qt wants one, mode 0700)."""
     runtime = work / "xdg-runtime"
     runtime.mkdir(mode=0o700, parents=True, exist_ok=True)
-    return dict(os.environ, QT_QPA_PLATFORM="offscreen", XDG_RUNTIME_DIR=str(runtime))
+    # GDAL_PAM_ENABLED=NO: nothing (.aux.xml statistics) written beside the shipped flume DEM
+    return dict(os.environ, QT_QPA_PLATFORM="offscreen", XDG_RUNTIME_DIR=str(runtime), GDAL_PAM_ENABLED="NO")
 
 
 def qgis_process_binary():
