@@ -16,6 +16,7 @@ packages=(
   python-matplotlib-data
   chromium
   libopenmpi-dev openmpi-bin  # optional for the build: sweeps over MPI ranks (docs/cluster.md)
+  qgis python3-qgis python3-gdal  # qgis_process and PyQGIS: the QGIS provider's headless test and picture (docs/qgis.md)
 )
 # The web page (web/, docs/web.md) is built with npm and its browser test runs under Node. Node 20 and npm
 # come with the machine (NodeSource); Debian's own nodejs/npm are installed only where `node`/`npm` are missing

@@ -62,6 +62,15 @@ void Server::Impl::routes_results() {
           throw ApiError(400, "name", "raster name must be 1 to 64 of A-Z a-z 0-9 _ . - without '..'");
         send_run_file(m[1].str(), m[2].str() + ".tif", res, "image/tiff; application=geotiff", true);
       });
+  // The raster's QGIS style, written beside it by the run: a client loading the GeoTIFF (the QGIS provider,
+  // docs/qgis.md) styles it as `runout run` users see it.
+  add(R"(/jobs/(\d{1,18})/rasters/(.+)\.qml)", "GET",
+      [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
+        only_params(req, {});
+        if (!safe_file_name(m[2].str()))
+          throw ApiError(400, "name", "raster name must be 1 to 64 of A-Z a-z 0-9 _ . - without '..'");
+        send_run_file(m[1].str(), m[2].str() + ".qml", res, "text/xml; charset=utf-8", true);
+      });
   // The inundated area and the intensity classes as polygons (the run's rasters/hazard.gpkg).
   add(R"(/jobs/(\d{1,18})/vectors/hazard\.gpkg)", "GET",
       [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {

@@ -416,6 +416,7 @@ TEST_F(Service, OpenApiDocumentDescribesEveryRoute) {
       {"/jobs/{id}/metrics", {"get"}},
       {"/jobs/{id}/series/{name}.csv", {"get"}},
       {"/jobs/{id}/rasters/{name}.tif", {"get"}},
+      {"/jobs/{id}/rasters/{name}.qml", {"get"}},
       {"/jobs/{id}/map.png", {"get"}},
       {"/jobs/{id}/map.json", {"get"}},
       {"/jobs/{id}/rasters/{name}.png", {"get"}},

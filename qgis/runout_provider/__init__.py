@@ -1,0 +1,6 @@
+"""Runout's QGIS plugin: a Processing provider (docs/qgis.md)."""
+
+
+def classFactory(iface):  # noqa: N802 (QGIS's name)
+    from .plugin import RunoutPlugin
+    return RunoutPlugin(iface)
