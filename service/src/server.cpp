@@ -250,9 +250,30 @@ void Server::Impl::run_job(const Job& job) {
       if (latest) queue->progress(job.id, latest->time, latest->duration, latest->steps, latest->wall_seconds, std::nullopt);
       queue->finish(job.id, status, run_id, reused, error);
       spdlog::info("job {} {}{}{}", job.id, status, error.empty() ? "" : ": ", error);
+      if (status == "done" && job.sweep_id) write_sweep_differences(*job.sweep_id, job.id);
     }
   } catch (const std::exception& e) {
     spdlog::error("job {}: could not record '{}': {} (it is requeued at the next start)", job.id, status, e.what());
+  }
+}
+
+// A sweep's difference rasters, as `runout sweep` writes them: each done layout minus the sweep's first layout
+// (its baseline), into the layout's own job folder (a reused run's rasters belong to the job that made it, and
+// perhaps to another sweep with another baseline), as soon as both are done. One writer at a time: two workers
+// finishing together would write the same files.
+void Server::Impl::write_sweep_differences(int64_t sweep_id, int64_t finished) {
+  std::lock_guard lock(differences_mutex);
+  const auto jobs = queue->list(std::nullopt, sweep_id, 100000, 0);
+  if (jobs.size() < 2 || jobs.front().status != "done") return;
+  const Job& base = jobs.front();
+  for (const auto& j : jobs) {
+    if (j.id == base.id || j.status != "done" || (finished != base.id && j.id != finished)) continue;
+    try {
+      write_layout_differences(out_dir_of(j) / "rasters", j.variant, out_dir_of(base) / "rasters", base.variant,
+                               fs::path(j.out_dir) / "rasters");
+    } catch (const std::exception& e) {
+      spdlog::warn("sweep {}: no difference rasters for job {}: {}", sweep_id, j.id, e.what());
+    }
   }
 }
 
