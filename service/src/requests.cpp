@@ -410,6 +410,19 @@ bool safe_file_name(const std::string& name) {
          });
 }
 
+std::string rebase_scene_files(const std::string& scene_json, const std::filesystem::path& folder) {
+  json scene = json::parse(scene_json);
+  for (const auto& [field, value] : scene_files(scene, "")) {
+    if (!value->is_string()) continue;  // the validator names it
+    const std::filesystem::path name = value->get<std::string>();
+    const std::filesystem::path rebased = (folder / name).lexically_normal();
+    if (name.is_absolute() || rebased.empty() || *rebased.begin() == "..")
+      throw std::invalid_argument(field + ": '" + name.string() + "' is not inside the scene directory");
+    *const_cast<json*>(value) = rebased.generic_string();  // scene is ours: scene_files lists its own members
+  }
+  return scene.dump();
+}
+
 NewScene parse_scene_request(const std::string& body, const Limits& limits) {
   const json scene = parse_body(body);
   check_resolvable(scene, "");

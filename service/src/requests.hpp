@@ -91,6 +91,12 @@ JobSpec parse_job_request(const std::string& body, const Limits& limits, const J
 NewSweep parse_sweep_request(const std::string& body, const Limits& limits, const JobQueue& queue,
                              std::optional<std::string>& body_key);
 
+// A scene file of FOLDER (a path relative to the scene directory) with every file it names (terrain.dem, each
+// layer reference's file) made relative to the scene directory instead: "../dem/alr_5m.tif" of a scene in
+// "catchment" becomes "dem/alr_5m.tif", which a request may name. The JSON text (dumped); throws
+// std::invalid_argument naming the field when a name is absolute or would leave the scene directory.
+std::string rebase_scene_files(const std::string& scene_json, const std::filesystem::path& folder);
+
 // An Idempotency-Key: 1 to 200 printable ASCII characters (400 otherwise).
 void check_idempotency_key(const std::string& key, const std::string& field);
 // Names of series and rasters in URLs: 1 to 64 of [A-Za-z0-9_.-], no "..".

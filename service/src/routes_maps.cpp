@@ -21,12 +21,11 @@ std::vector<ColourScale> Server::Impl::raster_scales(const fs::path& out_dir) {
 }
 
 // map.json's layers of job `j`: each raster with its picture, download, QGIS style and colour scale; with
-// `shared` jobs, each ramp spans the largest value among them and this one (the picture's ?max= says so).
-json Server::Impl::map_layers_json(const Job& j, const std::string& self, std::vector<int64_t> shared) {
+// `shared` jobs (this one among them), each ramp spans the largest value among them (the picture's ?max=).
+json Server::Impl::map_layers_json(const Job& j, const std::string& self, const std::vector<int64_t>& shared) {
   std::map<std::string, double> top;  // layer -> the shared scale's top
   try {
     if (!shared.empty()) {
-      shared.push_back(j.id);
       for (int64_t id : shared) {
         const Job other = require_job(std::to_string(id), "shared");
         (void)run_of(other, "shared");
@@ -111,6 +110,7 @@ void Server::Impl::routes_maps() {
     std::vector<int64_t> shared;
     if (req.has_param("shared")) shared = id_list("shared", req.get_param_value("shared"), 50);
     const Job j = require_job(m[1].str());
+    if (!shared.empty() && std::find(shared.begin(), shared.end(), j.id) == shared.end()) shared.push_back(j.id);
     const int64_t run = run_of(j);
     std::optional<MapExtent> extent;
     try {

@@ -280,6 +280,10 @@ struct Route {
 
 using namespace srv;
 
+// The base scenes of the shipped studies under ROOT, relative to it, in the order they are stored: the `base`
+// of every sweep file in ROOT's folders (flume/ first, then by name), each once (shipped_studies.cpp).
+std::vector<fs::path> shipped_base_scenes(const fs::path& root);
+
 struct Server::Impl {
   ServeOptions opt;
   Limits limits;
@@ -468,7 +472,7 @@ struct Server::Impl {
   void routes_results();
   void routes_maps();
   std::vector<ColourScale> raster_scales(const fs::path& out_dir);
-  json map_layers_json(const Job& j, const std::string& self, std::vector<int64_t> shared);
+  json map_layers_json(const Job& j, const std::string& self, const std::vector<int64_t>& shared);
   std::mutex scales_mutex;
   std::map<std::string, std::vector<ColourScale>> scales_cache;  // a run's output folder -> its colour scales
   void send_run_file(const std::string& id, const std::string& file, httplib::Response& res, const char* type,
@@ -479,7 +483,14 @@ struct Server::Impl {
   void dispatch(const httplib::Request& req, httplib::Response& res);
   void worker_loop(int index);
   void run_job(const Job& job);
-  void write_sweep_differences(int64_t sweep_id, int64_t finished);
+  void write_sweep_differences(const Job& finished);
+  // The shipped studies' base scenes, stored in the background at start (shipped_studies.cpp); GET /health
+  // reports `shipped`: {status: off | storing | done, offered: [{file, scene_id, name}], failed: [{file, message}]}.
+  void seed_shipped_studies();
+  json shipped_status() const;
+  json shipped = {{"status", "off"}, {"offered", json::array()}, {"failed", json::array()}};
+  mutable std::mutex shipped_mutex;
+  std::thread seeder;
   std::mutex differences_mutex;
 };
 
