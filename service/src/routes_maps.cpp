@@ -141,12 +141,20 @@ void Server::Impl::routes_maps() {
     const std::string self = kPrefix + "/jobs/" + m[1].str();
     json layers = map_layers_json(j, self, shared);
     const bool shaded = fs::is_regular_file(run_hillshade(out_dir_of(j)));
+    // A sweep layout's difference rasters against the sweep's baseline (the job's own, write_sweep_differences).
+    json differences = json::array();
+    for (const std::string name : {"diff_max_depth", "diff_max_hv"})
+      if (!j.out_dir.empty() && fs::is_regular_file(fs::path(j.out_dir) / "rasters" / (name + ".tif")))
+        differences.push_back({{"name", name},
+                               {"download", self + "/rasters/" + name + ".tif"},
+                               {"style", self + "/rasters/" + name + ".qml"}});
     send_json(res, 200,
               {{"job", j.id},
                {"run_id", run},
                {"image", self + "/map.png"},
                {"hillshade", shaded ? json(self + "/hillshade.png") : json(nullptr)},
                {"layers", layers},
+               {"differences", differences},
                {"shared", shared.empty() ? json(nullptr) : json{{"jobs", shared}}},
                {"crs", g.crs},
                {"raster",
