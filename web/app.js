@@ -686,9 +686,10 @@ function renderMetrics(c) {
     previous = m;
     const differs = m.difference.some((d) => d != null && d !== 0) || (m.never ?? []).some((n) => n !== Boolean(m.baseline_never));
     tr.dataset.differs = differs;
-    // The metric for people (the API's label); the stored name under it, and in the tooltip.
+    // The metric for people (the API's label), the stored name in its tooltip; a metric without a label keeps
+    // its stored name, in monospace.
     const head = Object.assign(document.createElement('th'), { scope: 'row', textContent: m.label ?? m.metric, title: m.metric });
-    if (m.label && m.label !== m.metric) head.append(Object.assign(document.createElement('span'), { className: 'key', textContent: m.metric }));
+    if (m.label && m.label !== m.metric) head.className = 'labelled';
     tr.append(head);
     better = m.better ?? null;
     tr.append(td(m.baseline, m.metric, c.baseline.job, 'baseline', 6, m.baseline_never));

@@ -423,7 +423,7 @@ std::string rebase_scene_files(const std::string& scene_json, const std::filesys
   return scene.dump();
 }
 
-NewScene parse_scene_request(const std::string& body, const Limits& limits) {
+NewScene parse_scene_request(const std::string& body, const Limits& limits, const std::function<bool()>& stopped) {
   const json scene = parse_body(body);
   check_resolvable(scene, "");
   NewScene out;
@@ -434,6 +434,7 @@ NewScene parse_scene_request(const std::string& body, const Limits& limits) {
   draft.name = "draft";
   (void)make_job(scene, "", std::vector<std::string>{}, "none", draft, limits);
   for (const auto& s : out.structures) {
+    if (stopped && stopped()) throw std::runtime_error("stopped before structure '" + s + "' was checked");
     try {
       (void)make_job(scene, "", std::vector<std::string>{s}, "check", draft, limits);
     } catch (const ApiError& e) {

@@ -5,6 +5,7 @@
 // file paths and the budget. nlohmann-json stays out of this header.
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -85,7 +86,10 @@ struct NewSweep {
 };
 
 // Bodies are JSON text; malformed JSON is a 400, everything else that is wrong a 422.
-NewScene parse_scene_request(const std::string& body, const Limits& limits);
+// `stopped`, when given, is asked between the layouts checked (each builds the scene: seconds on a catchment);
+// true stops the check with std::runtime_error (a server shutting down does not wait for the rest).
+NewScene parse_scene_request(const std::string& body, const Limits& limits,
+                             const std::function<bool()>& stopped = {});
 JobSpec parse_job_request(const std::string& body, const Limits& limits, const JobQueue& queue,
                           std::optional<std::string>& body_key);
 NewSweep parse_sweep_request(const std::string& body, const Limits& limits, const JobQueue& queue,

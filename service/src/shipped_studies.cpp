@@ -66,16 +66,17 @@ void Server::Impl::seed_shipped_studies() {
     std::lock_guard lock(shipped_mutex);
     shipped[list].push_back(entry);
   };
+  auto stopped = [this] {
+    std::lock_guard lock(mutex);
+    return stopping;
+  };
   for (const auto& rel : shipped_base_scenes(root)) {
-    {
-      std::lock_guard lock(mutex);
-      if (stopping) break;
-    }
+    if (stopped()) break;
     try {
       const std::string text = rebase_scene_files(read_file(root / rel), rel.parent_path());
       auto row = queue->find_scene(sha256_hex(text));  // stored by an earlier start: not checked again
       if (!row) {
-        const NewScene s = parse_scene_request(text, limits);
+        const NewScene s = parse_scene_request(text, limits, stopped);
         row = queue->put_scene(s.name, s.content_hash, s.scene_json, json(s.structures).dump()).first;
       }
       record("offered", {{"file", rel.generic_string()}, {"scene_id", row->id}, {"name", row->name}});
@@ -84,12 +85,13 @@ void Server::Impl::seed_shipped_studies() {
       record("failed", {{"file", rel.generic_string()}, {"message", scrub(e.field + ": " + e.what())}});
       spdlog::warn("shipped study {} not offered: {}: {}", rel.generic_string(), e.field, scrub(e.what()));
     } catch (const std::exception& e) {
+      if (stopped()) break;  // shutting down: not a failure of the scene
       record("failed", {{"file", rel.generic_string()}, {"message", scrub(e.what())}});
       spdlog::warn("shipped study {} not offered: {}", rel.generic_string(), scrub(e.what()));
     }
   }
   std::lock_guard lock(shipped_mutex);
-  shipped["status"] = "done";
+  shipped["status"] = stopped() ? "stopped" : "done";
 }
 
 }  // namespace runout::service

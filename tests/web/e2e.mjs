@@ -372,7 +372,8 @@ async function main() {
   const table = await page.$$eval('#compare-table tbody tr', (trs) =>
     trs.map((tr) => ({
       metric: tr.dataset.metric,
-      head: tr.querySelector('th').firstChild.textContent,
+      head: tr.querySelector('th').textContent,
+      title: tr.querySelector('th').title,
       cells: [...tr.querySelectorAll('td')].map((td) => ({ kind: td.dataset.kind, job: td.dataset.job, value: td.dataset.value, text: td.textContent, judged: td.dataset.judged ?? null, cls: td.className })),
     })));
   equal(table.length, cmp.json.metrics.length, 'rows of the metrics table');
@@ -385,6 +386,7 @@ async function main() {
     equal(row.metric, m.metric, `row ${k}`);
     // The heading is the API's label for people (the stored name for metrics without one).
     equal(row.head, m.label, `${m.metric}: its heading`);
+    equal(row.title, m.metric, `${m.metric}: the stored name in the heading's tooltip`);
     if (m.decision) check(m.label !== m.metric && /\[.+\]$/.test(m.label), `${m.metric}: a decision metric has a label with its unit (${m.label})`);
     const want = [
       ['baseline', baseline, m.baseline, 6, m.baseline_never],
