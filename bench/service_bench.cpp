@@ -52,7 +52,8 @@ struct Child {
 Child start(const std::string& runout, const fs::path& dir, const std::vector<std::string>& extra) {
   int out[2];
   if (::pipe(out) != 0) std::exit(1);
-  std::vector<std::string> args = {runout, "serve", "--port", "0", "--db", (dir / "bench.db").string(), "--runs", (dir / "runs").string()};
+  std::vector<std::string> args = {runout, "serve", "--port", "0", "--db", (dir / "bench.db").string(), "--runs", (dir / "runs").string(),
+                                   "--shipped-studies", "off"};  // no background scene checks in the timings
   args.insert(args.end(), extra.begin(), extra.end());
   Child c;
   c.pid = ::fork();

@@ -15,6 +15,7 @@ const state = {
   baseline: null,
   total: 0,
   estimateSeq: 0,
+  shipped: 0, // shipped studies stored, as /health last said
 };
 
 // ---------------------------------------------------------------------------------------------------------
@@ -36,7 +37,7 @@ export const tableNumber = (v, digits = 6) => (v == null ? '–' : String(Number
 // ---------------------------------------------------------------------------------------------------------
 // Errors beside fields
 
-const SLOTS = ['scene_id', 'scene', 'structures', 'variant', 'name', 'fidelity', 'Authorization', 'form'];
+const SLOTS = ['scene_id', 'scene', 'structures', 'variant', 'name', 'sweep_file', 'fidelity', 'Authorization', 'form'];
 // The job form's slots: an estimate or a submission answers these, never the scene store's message (an
 // estimate scheduled at page load could otherwise wipe the message a refused scene just got).
 const FORM_SLOTS = SLOTS.filter((s) => s !== 'scene');
@@ -44,8 +45,11 @@ const FORM_SLOTS = SLOTS.filter((s) => s !== 'scene');
 // Which form field an API error belongs to (its `field` is a JSON path into the body, a header or "(body)").
 function slotFor(field, context) {
   if (context === 'scene') return 'scene'; // POST /scenes: any field is a field of the pasted scene
-  if (!field || field === '(body)' || field === '(request)' || field === 'idempotency_key') return 'form';
   if (field === 'Authorization') return 'Authorization';
+  // A sweep file's fields (its name, layouts, unknown fields) are answered beside the file, but for the fidelity.
+  if (mode() === 'file' && !(field === 'fidelity' || field.startsWith('fidelity.') || field === 'dp' || field.endsWith('.dp')))
+    return field === 'scene_id' ? 'scene_id' : 'sweep_file';
+  if (!field || field === '(body)' || field === '(request)' || field === 'idempotency_key') return 'form';
   if (field === 'fidelity' || field.startsWith('fidelity.')) return 'fidelity';
   // Over the particle budget the validator names dp: a coarser fidelity is the way out.
   if (field === 'dp' || field.endsWith('.dp')) return 'fidelity';
@@ -111,7 +115,14 @@ async function loadHealth() {
     $('health').textContent =
       `v${h.version} · ${h.workers} worker${h.workers === 1 ? '' : 's'} (${h.busy_workers} busy) × ${h.threads_per_job} thread${h.threads_per_job === 1 ? '' : 's'} · ` +
       `budget ${int(h.particle_budget)} particles · writes ${h.auth === 'open' ? 'open' : 'need the token'} · ` +
-      `${j.queued || 0} queued, ${j.running || 0} running`;
+      `${j.queued || 0} queued, ${j.running || 0} running` +
+      (h.shipped_studies?.status === 'storing' ? ' · storing the shipped studies…' : '');
+    // The shipped studies are stored in the background at start: the list follows as they arrive.
+    const offered = h.shipped_studies?.offered?.length ?? 0;
+    if (offered !== state.shipped) {
+      state.shipped = offered;
+      loadScenes().catch((e) => showError(e));
+    }
     $('token-note').textContent = h.auth === 'open' ? '(not needed: writes are open)' : '(needed; kept in this tab only)';
     $('health').classList.remove('down');
   } catch (e) {
@@ -120,20 +131,28 @@ async function loadHealth() {
   }
 }
 
+let sceneAddOpened = false; // the scene box was opened because there was no scene yet
+
+// The stored scenes in the picker. The scene picked stays picked (its ticked structures with it); a new pick
+// (selectId, or the first scene there is) shows its structures.
 async function loadScenes(selectId) {
   const scenes = await getAll('/scenes?limit=1000', 'scenes');
   state.scenes = scenes;
   const sel = $('scene-select');
   sel.replaceChildren();
   if (scenes.length === 0) {
-    const o = new Option('no stored scenes: add one below', '');
+    const o = new Option('no stored scenes yet: add one below', '');
     sel.append(o);
+    sceneAddOpened = sceneAddOpened || !$('scene-add').open;
     $('scene-add').open = true;
+  } else if (sceneAddOpened) {
+    sceneAddOpened = false;
+    $('scene-add').open = false;
   }
   for (const s of scenes) sel.append(new Option(`${s.name} (#${s.id}, ${s.structures.length} candidate structures)`, s.id));
-  const keep = selectId ?? state.scene?.id ?? scenes[scenes.length - 1]?.id;
+  const keep = selectId ?? state.scene?.id ?? scenes[0]?.id;
   if (keep != null) sel.value = String(keep);
-  await pickScene();
+  if (selectId != null || state.scene?.id !== keep) await pickScene();
 }
 
 async function pickScene() {
@@ -221,6 +240,33 @@ function sweepBody() {
   return body;
 }
 
+// The sweep file as POST /sweeps takes it: as written, but its `base` (a file name on the engineer's machine)
+// becomes the base scene picked above; an inline base scene (an object) is sent as it is. Not JSON: said
+// beside the file (nothing to send).
+function sweepFileBody() {
+  let body;
+  try {
+    body = JSON.parse($('sweep-json').value);
+  } catch (e) {
+    throw new ApiError(0, '(sweep file)', `not JSON: ${e.message}`);
+  }
+  if (body === null || typeof body !== 'object' || Array.isArray(body))
+    throw new ApiError(0, '(sweep file)', 'must be a JSON object {name, base, fidelity, variants or factorial}');
+  if (typeof body.base !== 'object' || body.base === null) {
+    delete body.base;
+    body.scene_id = state.scene?.id ?? null;
+  }
+  if (body.fidelity === undefined) body.fidelity = fidelity();
+  return body;
+}
+
+// The layouts of a sweep body: its variants' structures, or every subset of its factorial's.
+function sweepLayouts(body) {
+  if (Array.isArray(body.variants)) return body.variants.map((v) => (Array.isArray(v?.structures) ? v.structures : []));
+  const names = body.factorial?.structures;
+  return Array.isArray(names) ? subsets(names) : [];
+}
+
 // All subsets of `names`, as factorial_variants numbers them (by size, then order).
 function subsets(names) {
   const out = [];
@@ -248,6 +294,26 @@ async function runEstimate() {
       const e = await post('/estimate', jobBody());
       if (seq !== state.estimateSeq) return;
       renderEstimate([e], 1);
+    } else if (mode() === 'file') {
+      if (!$('sweep-json').value.trim()) {
+        box.replaceChildren();
+        return;
+      }
+      const body = sweepFileBody();
+      const layouts = sweepLayouts(body);
+      $('sweep-summary').textContent = `${body.name || 'sweep'}: ${layouts.length} layout${layouts.length === 1 ? '' : 's'} on ${body.scene_id ? `scene #${body.scene_id}` : 'its own base scene'}`;
+      // Up to 32 layouts each estimated; beyond, the first and the last bracket the rest.
+      const picked = layouts.length <= 32 ? layouts : [layouts[0], layouts[layouts.length - 1]];
+      const results = [];
+      for (const structures of picked) {
+        const e = { structures, fidelity: body.fidelity };
+        if (body.scene_id !== undefined) e.scene_id = body.scene_id;
+        else e.base = body.base;
+        results.push(await post('/estimate', e));
+        if (seq !== state.estimateSeq) return;
+      }
+      if (results.length) renderEstimate(results, layouts.length, 'listed');
+      else box.replaceChildren();
     } else {
       const names = tickedStructures();
       // Up to 32 layouts each estimated; beyond, the empty and the full layout bracket the rest.
@@ -271,7 +337,7 @@ async function runEstimate() {
   }
 }
 
-function renderEstimate(results, jobs) {
+function renderEstimate(results, jobs, design = 'factorial') {
   const box = $('estimate');
   box.replaceChildren();
   const e = results[0];
@@ -302,7 +368,7 @@ function renderEstimate(results, jobs) {
     box.dataset.seconds = allSecs;
     box.append(
       definitionList([
-        ['jobs', `${jobs} (every subset of ${Math.log2(jobs)} structures)`],
+        ['jobs', design === 'factorial' ? `${jobs} (every subset of ${Math.log2(jobs)} structures)` : `${jobs} (the file's layouts)`],
         ['particles per job', `${int(Math.min(...fluid))}–${int(Math.max(...fluid))} fluid, ${int(Math.min(...total))}–${int(Math.max(...total))} in all`],
         ['steps per job', `≈ ${int(Math.min(...steps))}–${int(Math.max(...steps))}`],
         ['run time', `${exact ? '≈' : 'about'} ${duration(allSecs)} for the sweep on one worker`],
@@ -323,7 +389,7 @@ async function submit(ev) {
   ev.preventDefault();
   clearErrors(FORM_SLOTS);
   const status = $('submit-status');
-  if (!state.scene) {
+  if (!state.scene && mode() !== 'file') {
     showError(new ApiError(0, 'scene_id', 'pick a stored scene, or add one'));
     return;
   }
@@ -333,6 +399,9 @@ async function submit(ev) {
     if (mode() === 'single') {
       const job = await post('/jobs', jobBody());
       status.textContent = `job #${job.id} ${job.scene_name} queued`;
+    } else if (mode() === 'file') {
+      const sweep = await post('/sweeps', sweepFileBody());
+      status.textContent = `sweep #${sweep.id} ${sweep.name}: ${sweep.jobs.length} jobs queued`;
     } else {
       const sweep = await post('/sweeps', sweepBody());
       status.textContent = `sweep #${sweep.id} ${sweep.name}: ${sweep.jobs.length} jobs queued`;
@@ -515,11 +584,22 @@ async function showCompare() {
   ];
   jobsById = new Map(jobs.map((j) => [j.id, j]));
   $('compare-head').textContent = `baseline #${c.baseline.job} ${c.baseline.label}; ${c.jobs.map((j) => `#${j.job} ${j.label}`).join(', ')}`;
+  renderReportLink(c);
   renderRanking(c);
   renderMetrics(c);
   card.scrollIntoView({ behavior: 'instant', block: 'start' });
   await Promise.all([renderCharts(jobs), renderMaps(jobs)]);
   card.dataset.ready = 'true';
+}
+
+// The sweep's study report (GET /compare `sweep`), when every compared job is a layout of one sweep.
+function renderReportLink(c) {
+  const p = $('report-link');
+  p.replaceChildren();
+  p.hidden = !c.sweep;
+  if (!c.sweep) return;
+  const a = Object.assign(document.createElement('a'), { href: c.sweep.report, textContent: `the study report of sweep ${c.sweep.name}`, target: '_blank', rel: 'noopener' });
+  p.append(document.createTextNode('All layouts of the sweep, ranked, with hydrographs, intensity and difference maps: '), a);
 }
 
 // The layouts ranked by the server (GET /compare `ranking`: the outlet's peak discharge, lowest first).
@@ -587,9 +667,15 @@ function renderMetrics(c) {
     d.dataset.kind = kind;
     d.dataset.value = v == null ? '' : String(v);
     if (never) d.dataset.never = 'true';
-    if ((kind === 'difference' || kind === 'percent') && v != null && v !== 0) d.classList.add(v > 0 ? 'up' : 'down');
+    // Better or worse by the metric's direction (a later arrival is better); no direction: no judgement.
+    if ((kind === 'difference' || kind === 'percent') && v != null && v !== 0 && better) {
+      const good = better === 'higher' ? v > 0 : v < 0;
+      d.classList.add(good ? 'better' : 'worse');
+      d.dataset.judged = good ? 'better' : 'worse';
+    }
     return d;
   };
+  let better = null; // the row's direction, while its cells are made
   let previous = null;
   for (const m of c.metrics) {
     const tr = document.createElement('tr');
@@ -600,7 +686,12 @@ function renderMetrics(c) {
     previous = m;
     const differs = m.difference.some((d) => d != null && d !== 0) || (m.never ?? []).some((n) => n !== Boolean(m.baseline_never));
     tr.dataset.differs = differs;
-    tr.append(Object.assign(document.createElement('th'), { scope: 'row', textContent: m.metric }));
+    // The metric for people (the API's label), the stored name in its tooltip; a metric without a label keeps
+    // its stored name, in monospace.
+    const head = Object.assign(document.createElement('th'), { scope: 'row', textContent: m.label ?? m.metric, title: m.metric });
+    if (m.label && m.label !== m.metric) head.className = 'labelled';
+    tr.append(head);
+    better = m.better ?? null;
     tr.append(td(m.baseline, m.metric, c.baseline.job, 'baseline', 6, m.baseline_never));
     c.jobs.forEach((j, k) => {
       tr.append(td(m.values[k], m.metric, j.job, 'value', 6, m.never?.[k]), td(m.difference[k], m.metric, j.job, 'difference', 6), td(m.percent[k], m.metric, j.job, 'percent', 4));
@@ -673,11 +764,17 @@ async function renderCharts(jobs) {
   if (!box.children.length) box.append(Object.assign(document.createElement('p'), { className: 'muted', textContent: 'no series to plot' }));
 }
 
+// A map per job, all on one colour scale per raster (map.json?shared=): the same colour is the same value on
+// every map, and the page says so.
 async function renderMaps(jobs) {
   const box = $('maps');
   for (const f of box.querySelectorAll('figure.map')) f.__map?.remove();
   box.replaceChildren();
-  await Promise.all(jobs.map((j) => drawMap(box, j)));
+  const ids = jobs.map((j) => j.id);
+  $('maps-scale').textContent = ids.length > 1
+    ? `The ${ids.length} maps share one colour scale per raster, from the largest value among jobs ${ids.map((i) => `#${i}`).join(', ')}: the same colour means the same value on every map (each legend gives the scale and its map's own largest value).`
+    : '';
+  await Promise.all(jobs.map((j) => drawMap(box, j, ids.length > 1 ? ids : [])));
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -692,12 +789,20 @@ function wire() {
   $('structure-list').addEventListener('change', scheduleEstimate);
   for (const r of document.querySelectorAll('input[name=mode]'))
     r.addEventListener('change', () => {
-      const sweep = mode() === 'factorial';
-      $('field-name').hidden = !sweep;
-      $('field-variant').hidden = sweep;
-      $('submit-btn').textContent = sweep ? 'Submit the sweep' : 'Submit';
+      const m = mode();
+      $('field-name').hidden = m !== 'factorial';
+      $('field-variant').hidden = m !== 'single';
+      $('field-sweep_file').hidden = m !== 'file';
+      $('field-structures').hidden = m === 'file'; // the file names its layouts
+      $('submit-btn').textContent = { single: 'Submit', factorial: 'Submit the sweep', file: 'Submit the sweep file' }[m];
       scheduleEstimate();
     });
+  $('sweep-file').addEventListener('change', async () => {
+    const f = $('sweep-file').files[0];
+    if (f) $('sweep-json').value = await f.text();
+    scheduleEstimate();
+  });
+  $('sweep-json').addEventListener('input', scheduleEstimate);
   $('fidelity').addEventListener('change', () => {
     $('dp').hidden = $('fidelity').value !== 'custom';
     scheduleEstimate();

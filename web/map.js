@@ -81,6 +81,15 @@ function legendOf(layer) {
     : !sc.zero_transparent ? 'no colour: never reached'
     : sc.min > 0 ? `no colour: below ${numberText(sc.min)} ${layer.unit} or no data` : 'no colour: zero or no data';
   box.append(note);
+  // A shared scale says so: its top is the largest value among the compared jobs, not this map's own.
+  const scope = document.createElement('div');
+  scope.className = 'legend-note legend-scope';
+  scope.dataset.shared = String(Boolean(sc.shared));
+  if (!sc.classes)
+    scope.textContent = sc.shared
+      ? `scale shared by the compared maps (top: their largest value); this map's largest: ${numberText(sc.data_max)} ${layer.unit}`
+      : `scale of this map alone (top: its largest value)`;
+  box.append(scope);
   return box;
 }
 
@@ -100,7 +109,11 @@ function downloads(job, info, series) {
     li.append(a);
     list.append(li);
   };
-  for (const l of info?.layers || []) link(l.download, `${l.name}.tif`, 'image/tiff');
+  // Each GeoTIFF with its QGIS style, both under the run's names (QGIS applies NAME.qml to NAME.tif beside it).
+  for (const l of [...(info?.layers || []), ...(info?.differences || [])]) {
+    link(l.download, `${l.name}.tif`, 'image/tiff');
+    link(l.style, `${l.name}.qml`, 'application/xml');
+  }
   if (info) {
     link(`${API}/jobs/${job.id}/vectors/hazard.gpkg`, 'hazard.gpkg', 'application/geopackage+sqlite3');
     link(info.image, 'max_depth.png', 'image/png');
@@ -111,7 +124,8 @@ function downloads(job, info, series) {
 }
 
 // Appends a figure for job `job` ({id, label, colour}); resolves once the map's first raster has loaded.
-export async function drawMap(container, job) {
+// `shared`: the ids of the jobs whose maps share one colour scale (map.json?shared=); empty: its own.
+export async function drawMap(container, job, shared = []) {
   const figure = document.createElement('figure');
   figure.className = 'map';
   figure.dataset.job = job.id;
@@ -126,7 +140,7 @@ export async function drawMap(container, job) {
   const series = (await get(`/jobs/${job.id}/metrics`).catch(() => ({ series: [] }))).series || [];
   let info = null;
   try {
-    info = await get(`/jobs/${job.id}/map.json`);
+    info = await get(`/jobs/${job.id}/map.json${shared.length ? `?shared=${shared.join(',')}` : ''}`);
   } catch (e) {
     const p = document.createElement('p');
     p.className = 'muted small';

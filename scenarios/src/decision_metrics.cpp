@@ -122,4 +122,26 @@ std::vector<std::string> DecisionMetrics::order(const std::vector<std::string>& 
   return out;
 }
 
+std::string DecisionMetrics::label(const std::string& metric) const {
+  const auto r = rank(metric);
+  if (!r) return metric;
+  switch (r->group) {
+    case 1: return outlet_ + " Q_m [m³/s]";
+    case 2: return outlet_ + " volume [m³]";
+    case 3: return r->subject + (r->field == 0 ? " peak force [N]" : " peak mean pressure [Pa]");
+    case 4: return r->subject + (r->field == 0 ? " retained [m³]" : " upstream [m³]");
+    case 5: return "inundated area [m²]";
+    case 6: return r->subject + (r->field == 0 ? " area [m²]" : r->field == 1 ? " max depth [m]" : " arrival [s]");
+    case 7: return "runout [m]";
+    default: return metric;
+  }
+}
+
+bool DecisionMetrics::higher_is_better(const std::string& metric) {
+  auto ends = [&](const std::string& e) {
+    return metric.size() >= e.size() && metric.compare(metric.size() - e.size(), e.size(), e) == 0;
+  };
+  return ends("arrival_time_s") || ends("retained_volume_m3") || ends("upstream_volume_m3");
+}
+
 }  // namespace runout

@@ -180,15 +180,17 @@ ColourScale hazard_colour_scale(const std::string& layer, double max_value, doub
   s.zero_transparent = layer != "arrival_time";
   s.min = s.stops.front().value;
   s.max = s.stops.back().value;
+  s.data_max = max_value;
   return s;
 }
 
-std::optional<RasterPicture> render_run_raster(const fs::path& out_dir, const std::string& layer) {
+std::optional<RasterPicture> render_run_raster(const fs::path& out_dir, const std::string& layer,
+                                               std::optional<double> top) {
   (void)hazard_colour_scale(layer, 0, 0);  // an unknown layer is refused before the file system is touched
   const auto g = load_layer(out_dir, layer);
   if (!g) return std::nullopt;
   RasterPicture p;
-  p.scale = hazard_colour_scale(layer, grid_max(*g), run_threshold(out_dir));
+  p.scale = hazard_colour_scale(layer, top ? *top : grid_max(*g), run_threshold(out_dir));
   p.width = g->nx;
   p.height = g->ny;
   p.png = png_rgba(g->nx, g->ny, colour_cells(*g, p.scale));
@@ -202,6 +204,8 @@ std::vector<ColourScale> run_raster_scales(const fs::path& out_dir) {
     if (const auto g = load_layer(out_dir, layer)) out.push_back(hazard_colour_scale(layer, grid_max(*g), threshold));
   return out;
 }
+
+double run_inundation_threshold(const fs::path& out_dir) { return run_threshold(out_dir); }
 
 ColourScale difference_colour_scale(const std::string& name, const std::string& unit, double max_abs) {
   const double m = max_abs > 0 ? max_abs : 1.0;
@@ -221,6 +225,7 @@ ColourScale difference_colour_scale(const std::string& name, const std::string& 
   s.zero_transparent = false;  // 0 is "unchanged" (white); a cell dry in both layouts is nodata
   s.min = -m;
   s.max = m;
+  s.data_max = max_abs;
   return s;
 }
 

@@ -85,21 +85,7 @@ std::optional<double> metric(const Layout& l, const std::string& name) {
 }
 
 // The column heading of a decision metric: what it is, of which subject, in which unit.
-std::string metric_heading(const DecisionMetrics& d, const std::string& name) {
-  const auto r = d.rank(name);
-  if (!r) return name;
-  switch (r->group) {
-    case 1: return d.outlet() + " Q_m [m³/s]";
-    case 2: return d.outlet() + " volume [m³]";
-    case 3: return r->subject + (r->field == 0 ? " peak force [N]" : " peak mean pressure [Pa]");
-    case 4: return r->subject + (r->field == 0 ? " retained [m³]" : " upstream [m³]");
-    case 5: return "inundated area [m²]";
-    case 6:
-      return r->subject + (r->field == 0 ? " area [m²]" : r->field == 1 ? " max depth [m]" : " arrival [s]");
-    case 7: return "runout [m]";
-    default: return name;
-  }
-}
+std::string metric_heading(const DecisionMetrics& d, const std::string& name) { return d.label(name); }
 
 const char* group_name(int group) {
   static const char* names[] = {"", "outlet", "outlet", "peak loads", "retained volumes", "inundation",
@@ -294,12 +280,6 @@ std::vector<Column> table_columns(const std::vector<std::string>& decision, cons
   return out;
 }
 
-// Whether a rise from the baseline is an improvement: later arrival, more held back; otherwise less is better.
-bool higher_is_better(const std::string& name) {
-  auto ends = [&](const std::string& e) { return name.size() >= e.size() && name.compare(name.size() - e.size(), e.size(), e) == 0; };
-  return ends("arrival_time_s") || ends("retained_volume_m3") || ends("upstream_volume_m3");
-}
-
 // One value of a cell (with the structure's name in a merged column) and its difference from the baseline.
 std::string cell_value(const Layout& l, const Layout& base, const std::string& name, const std::string& subject) {
   const double v = *metric(l, name);
@@ -310,7 +290,7 @@ std::string cell_value(const Layout& l, const Layout& base, const std::string& n
   const auto b = metric(base, name);
   if (!l.baseline && b && *b != 0 && !means_never(name, v) && !means_never(name, *b)) {  // a per cent of "never" means nothing
     const double pct = (v - *b) / std::abs(*b) * 100;
-    const bool better = higher_is_better(name) ? pct > 0 : pct < 0;
+    const bool better = DecisionMetrics::higher_is_better(name) ? pct > 0 : pct < 0;
     s << " <small class=\"" << (pct == 0 ? "same" : better ? "better" : "worse") << "\">" << fmt(pct, "%+.1f %%")
       << "</small>";
   }
@@ -513,7 +493,7 @@ std::string hazard_maps(const Layout& l) {
         << "<br>debris-flow intensity from the maximum depth and h·v (rasters/intensity.tif)</figcaption></figure>";
     }
     for (const char* name : {"max_depth", "max_hv"})
-      if (const auto p = render_difference_raster(l.run.out_dir, name))
+      if (const auto p = render_difference_raster(l.run.differences_dir.empty() ? l.run.out_dir : l.run.differences_dir, name))
         s << "<figure class=\"map hazard\" data-raster=\"diff_" << name << "\"><div class=\"mapbox diff\"><img alt=\""
           << html_escape(p->scale.title) << " (" << id << ")\" src=\"data:image/png;base64," << base64_encode(p->png)
           << "\"></div><figcaption>" << scale_legend(p->scale, std::string("diff-") + name + "-" + id)
@@ -794,7 +774,7 @@ StudyReportInput sweep_report_input(const RunStore& store, const std::string& sw
                                 "' (accepted: " + list + ")");
   }
   StudyReportInput in{sweep, {}, latest.at(base)};
-  for (const auto& v : variants) in.runs.push_back({latest.at(v), v, runs_root / sweep / v});
+  for (const auto& v : variants) in.runs.push_back({latest.at(v), v, runs_root / sweep / v, {}});
   return in;
 }
 

@@ -27,28 +27,34 @@ std::vector<terrain::StyleStop> diverging(const terrain::Grid& d, const std::str
 
 }  // namespace
 
+bool write_layout_differences(const fs::path& rasters, const std::string& variant, const fs::path& base_rasters,
+                              const std::string& baseline, const fs::path& out_rasters) {
+  bool all = true;
+  for (const auto& r : difference_rasters()) {
+    const fs::path a = rasters / (std::string(r.name) + ".tif"), b = base_rasters / (std::string(r.name) + ".tif");
+    if (!fs::is_regular_file(a) || !fs::is_regular_file(b)) {
+      all = false;
+      continue;
+    }
+    const terrain::Grid d = terrain::difference_grid(terrain::load_dem(a.string()), terrain::load_dem(b.string()));
+    const std::string name = std::string("diff_") + r.name;
+    fs::create_directories(out_rasters);
+    terrain::write_geotiff((out_rasters / (name + ".tif")).string(), d,
+                           {r.description, r.unit,
+                            {{"RUNOUT_LAYOUT", variant}, {"RUNOUT_BASELINE", baseline},
+                             {"RUNOUT_DIFFERENCE", variant + " - " + baseline}}});
+    terrain::write_qml((out_rasters / (name + ".qml")).string(), diverging(d, r.name, r.unit), false);
+  }
+  return all;
+}
+
 std::vector<std::string> write_difference_rasters(const fs::path& sweep_dir, const std::vector<std::string>& variants) {
   std::vector<std::string> written;
   if (variants.size() < 2) return written;
   const fs::path base = sweep_dir / variants.front() / "rasters";
   for (size_t k = 1; k < variants.size(); ++k) {
     const fs::path dir = sweep_dir / variants[k] / "rasters";
-    bool all = true;
-    for (const auto& r : difference_rasters()) {
-      const fs::path a = dir / (std::string(r.name) + ".tif"), b = base / (std::string(r.name) + ".tif");
-      if (!fs::is_regular_file(a) || !fs::is_regular_file(b)) {
-        all = false;
-        continue;
-      }
-      const terrain::Grid d = terrain::difference_grid(terrain::load_dem(a.string()), terrain::load_dem(b.string()));
-      const std::string name = std::string("diff_") + r.name;
-      terrain::write_geotiff((dir / (name + ".tif")).string(), d,
-                             {r.description, r.unit,
-                              {{"RUNOUT_LAYOUT", variants[k]}, {"RUNOUT_BASELINE", variants.front()},
-                               {"RUNOUT_DIFFERENCE", variants[k] + " - " + variants.front()}}});
-      terrain::write_qml((dir / (name + ".qml")).string(), diverging(d, r.name, r.unit), false);
-    }
-    if (all) written.push_back(variants[k]);
+    if (write_layout_differences(dir, variants[k], base, variants.front(), dir)) written.push_back(variants[k]);
   }
   return written;
 }

@@ -19,9 +19,20 @@ namespace {
 
 struct ServeArgs {
   service::ServeOptions opt;
-  std::string token_file, db = "runout.db", runs = "runs", scene_dir = ".", web_root;
+  std::string token_file, db = "runout.db", runs = "runs", scene_dir, web_root, shipped = "on";
   bool verbose = false;
 };
+
+#ifndef RUNOUT_SCENARIOS_DIR
+#define RUNOUT_SCENARIOS_DIR ""
+#endif
+
+// The shipped studies' folder: scenarios/ of the source tree this binary was built from, if it is still there.
+std::filesystem::path shipped_root() {
+  const std::filesystem::path p = RUNOUT_SCENARIOS_DIR;
+  std::error_code ec;
+  return !p.empty() && std::filesystem::is_directory(p, ec) ? p : std::filesystem::path();
+}
 
 // The build copies the page (web/, with uPlot) next to the binary: BUILD/webroot beside BUILD/runout.
 std::filesystem::path default_web_root(const char* argv0) {
@@ -131,7 +142,7 @@ Action add_serve(CLI::App& app) {
   auto a = std::make_shared<ServeArgs>();
   auto& o = a->opt;
   auto* cmd = app.add_subcommand("serve", "Run the HTTP service: a job queue and the run store over a JSON API");
-  cmd->footer("Example (then open http://127.0.0.1:8080/):\n  runout serve --port 8080 --db runout.db --workers 1 --scene-dir scenarios/flume");
+  cmd->footer("Example (then open http://127.0.0.1:8080/: the shipped studies are offered as base scenes):\n  runout serve --port 8080 --db runout.db --workers 1");
   cmd->add_option("--host", o.host, "Address to bind (loopback by default)")->capture_default_str();
   bounded(cmd, "--port", o.port, "Port (0: any free port, printed on stdout)", 0, 65535);
   cmd->add_option("--db", a->db, "Run store and job queue (SQLite)")->capture_default_str();
@@ -144,7 +155,13 @@ Action add_serve(CLI::App& app) {
   cmd->add_option("--token-file", a->token_file, "File holding the bearer token that writes need, or several, one per line (else env RUNOUT_TOKEN)");
   add_limits(cmd, o);
   cmd->add_option("--runs", a->runs, "Job outputs go to RUNS/service/job-<id>")->capture_default_str();
-  cmd->add_option("--scene-dir", a->scene_dir, "Relative file names in submitted scenes (terrain.dem) resolve here")
+  cmd->add_option("--scene-dir", a->scene_dir,
+                  "Relative file names in submitted scenes (terrain.dem) resolve here, and must stay inside it "
+                  "(default: the shipped scenarios folder, " RUNOUT_SCENARIOS_DIR ", or . without it)");
+  cmd->add_option("--shipped-studies", a->shipped,
+                  "on: when the scene dir is the shipped scenarios folder, store its studies' base scenes (flume, "
+                  "catchments) in the background at start; off: do not")
+      ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
   cmd->add_flag("--verbose,-v", a->verbose, "Log every request (method, path, status, time)");
   cmd->add_option("--web-root", a->web_root,
@@ -154,7 +171,10 @@ Action add_serve(CLI::App& app) {
     service::ServeOptions o = a->opt;
     o.db = a->db;
     o.runs_dir = a->runs;
-    o.scene_dir = a->scene_dir;
+    o.shipped_root = shipped_root();
+    o.scene_dir = !a->scene_dir.empty() ? std::filesystem::path(a->scene_dir)
+                  : !o.shipped_root.empty() ? o.shipped_root : std::filesystem::path(".");
+    o.shipped_studies = a->shipped == "on";
     o.web_root = !a->web_root.empty() ? std::filesystem::path(a->web_root) : default_web_root(argv0);
     return serve(o, a->token_file, a->verbose);
   };

@@ -386,6 +386,14 @@ std::optional<SceneRow> JobQueue::get_scene(int64_t id) const {
   return SceneRow{s.int64(0), s.text(1), s.text(2), s.text(3), s.text(4), s.text(5)};
 }
 
+std::optional<SceneRow> JobQueue::find_scene(const std::string& content_hash) const {
+  std::lock_guard lock(impl_->reader.mutex);
+  Stmt s(impl_->reader, "SELECT id, name, content_hash, '', structures, created_at FROM service_scenes WHERE content_hash = ?");
+  s.bind(1, content_hash);
+  if (!s.step()) return std::nullopt;
+  return SceneRow{s.int64(0), s.text(1), s.text(2), s.text(3), s.text(4), s.text(5)};
+}
+
 std::vector<SceneRow> JobQueue::list_scenes(int64_t limit, const std::optional<int64_t>& after_id) const {
   std::lock_guard lock(impl_->reader.mutex);
   Stmt s(impl_->reader, std::string("SELECT id, name, content_hash, '', structures, created_at FROM service_scenes") +

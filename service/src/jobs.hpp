@@ -131,6 +131,7 @@ class JobQueue {
   std::pair<SceneRow, bool> put_scene(const std::string& name, const std::string& content_hash,
                                       const std::string& scene_json, const std::string& structures_json);
   std::optional<SceneRow> get_scene(int64_t id) const;
+  std::optional<SceneRow> find_scene(const std::string& content_hash) const;  // without scene_json
   // Without scene_json, oldest first; after_id: only ids above it (a page's cursor).
   std::vector<SceneRow> list_scenes(int64_t limit, const std::optional<int64_t>& after_id) const;
 

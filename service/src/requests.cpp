@@ -410,7 +410,20 @@ bool safe_file_name(const std::string& name) {
          });
 }
 
-NewScene parse_scene_request(const std::string& body, const Limits& limits) {
+std::string rebase_scene_files(const std::string& scene_json, const std::filesystem::path& folder) {
+  json scene = json::parse(scene_json);
+  for (const auto& [field, value] : scene_files(scene, "")) {
+    if (!value->is_string()) continue;  // the validator names it
+    const std::filesystem::path name = value->get<std::string>();
+    const std::filesystem::path rebased = (folder / name).lexically_normal();
+    if (name.is_absolute() || rebased.empty() || *rebased.begin() == "..")
+      throw std::invalid_argument(field + ": '" + name.string() + "' is not inside the scene directory");
+    *const_cast<json*>(value) = rebased.generic_string();  // scene is ours: scene_files lists its own members
+  }
+  return scene.dump();
+}
+
+NewScene parse_scene_request(const std::string& body, const Limits& limits, const std::function<bool()>& stopped) {
   const json scene = parse_body(body);
   check_resolvable(scene, "");
   NewScene out;
@@ -421,6 +434,7 @@ NewScene parse_scene_request(const std::string& body, const Limits& limits) {
   draft.name = "draft";
   (void)make_job(scene, "", std::vector<std::string>{}, "none", draft, limits);
   for (const auto& s : out.structures) {
+    if (stopped && stopped()) throw std::runtime_error("stopped before structure '" + s + "' was checked");
     try {
       (void)make_job(scene, "", std::vector<std::string>{s}, "check", draft, limits);
     } catch (const ApiError& e) {

@@ -5,6 +5,7 @@
 // file paths and the budget. nlohmann-json stays out of this header.
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -85,11 +86,20 @@ struct NewSweep {
 };
 
 // Bodies are JSON text; malformed JSON is a 400, everything else that is wrong a 422.
-NewScene parse_scene_request(const std::string& body, const Limits& limits);
+// `stopped`, when given, is asked between the layouts checked (each builds the scene: seconds on a catchment);
+// true stops the check with std::runtime_error (a server shutting down does not wait for the rest).
+NewScene parse_scene_request(const std::string& body, const Limits& limits,
+                             const std::function<bool()>& stopped = {});
 JobSpec parse_job_request(const std::string& body, const Limits& limits, const JobQueue& queue,
                           std::optional<std::string>& body_key);
 NewSweep parse_sweep_request(const std::string& body, const Limits& limits, const JobQueue& queue,
                              std::optional<std::string>& body_key);
+
+// A scene file of FOLDER (a path relative to the scene directory) with every file it names (terrain.dem, each
+// layer reference's file) made relative to the scene directory instead: "../dem/alr_5m.tif" of a scene in
+// "catchment" becomes "dem/alr_5m.tif", which a request may name. The JSON text (dumped); throws
+// std::invalid_argument naming the field when a name is absolute or would leave the scene directory.
+std::string rebase_scene_files(const std::string& scene_json, const std::filesystem::path& folder);
 
 // An Idempotency-Key: 1 to 200 printable ASCII characters (400 otherwise).
 void check_idempotency_key(const std::string& key, const std::string& field);

@@ -40,6 +40,24 @@ json ranking(const Comparison& c, const std::string& metric, int64_t base_job, c
 
 }  // namespace
 
+// The sweep every compared job belongs to, with its report's URL (the baseline's variant as the report's
+// baseline); null when they are not all of one sweep.
+json Server::Impl::sweep_of(int64_t base_job, const std::vector<int64_t>& job_ids) const {
+  std::optional<int64_t> sweep;
+  std::string variant;
+  for (size_t k = 0; k <= job_ids.size(); ++k) {
+    const auto j = queue->get(k == 0 ? base_job : job_ids[k - 1]);
+    if (!j || !j->sweep_id || (sweep && *sweep != *j->sweep_id)) return nullptr;
+    sweep = j->sweep_id;
+    if (k == 0) variant = j->variant;
+  }
+  const auto row = queue->get_sweep(*sweep);
+  if (!row) return nullptr;
+  httplib::Params q{{"baseline", variant}};
+  return {{"id", row->id}, {"name", row->name},
+          {"report", kPrefix + "/sweeps/" + std::to_string(row->id) + "/report.html?" + httplib::detail::params_to_query_str(q)}};
+}
+
 void Server::Impl::routes_compare() {
   add("/compare", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
     FieldErrors errors;
@@ -99,14 +117,19 @@ void Server::Impl::routes_compare() {
         pct.push_back(num(r.percent[k]));
       }
       // An arrival that never happened: null, with its flag in never / baseline_never (docs/service.md).
-      rows.push_back({{"metric", r.metric}, {"decision", decision.is_decision(r.metric)}, {"baseline", num(r.baseline)},
-                      {"baseline_never", r.baseline_never}, {"values", values}, {"never", r.never},
-                      {"difference", diffs}, {"percent", pct}});
+      // label and better come from decision_metrics.hpp, so the page, the report and the CLI agree on both.
+      const bool is_decision = decision.is_decision(r.metric);
+      const json better = !is_decision ? json(nullptr)
+                          : DecisionMetrics::higher_is_better(r.metric) ? json("higher") : json("lower");
+      rows.push_back({{"metric", r.metric}, {"label", decision.label(r.metric)}, {"decision", is_decision},
+                      {"better", better}, {"baseline", num(r.baseline)}, {"baseline_never", r.baseline_never},
+                      {"values", values}, {"never", r.never}, {"difference", diffs}, {"percent", pct}});
     }
     json columns = json::array();
     for (size_t k = 0; k < job_ids.size(); ++k) columns.push_back({{"job", job_ids[k]}, {"run_id", runs[k]}, {"label", c.runs[k]}});
     send_json(res, 200,
               {{"baseline", {{"job", base_id}, {"run_id", base_run}, {"label", c.baseline}}},
+               {"sweep", sweep_of(base_id, job_ids)},
                {"jobs", columns},
                {"outlet", decision.outlet().empty() ? json(nullptr) : json(decision.outlet())},
                {"ranking", ranking(c, decision.ranking_metric(), base_id, job_ids)},

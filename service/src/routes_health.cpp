@@ -23,6 +23,7 @@ void Server::Impl::routes_health() {
                {"particle_budget", opt.particle_budget},
                {"auth", tokens.empty() ? "open" : "bearer token for writes"},
                {"jobs", counts},
+               {"shipped_studies", shipped_status()},
                {"backlog",
                 {{"jobs", b.jobs},
                  {"cpu_seconds", b.total_cpu_s},

@@ -9,13 +9,18 @@ void Server::Impl::send_run_file(const std::string& id, const std::string& file,
                                  const char* type, bool download) {
   const Job j = require_job(id);
   (void)run_of(j);
-  const fs::path p = out_dir_of(j) / "rasters" / file;
+  // A sweep's difference rasters are the job's own (write_sweep_differences); the rest are its run's.
+  const bool own = file.rfind("diff_", 0) == 0 && !j.out_dir.empty();
+  const fs::path p = (own ? fs::path(j.out_dir) : out_dir_of(j)) / "rasters" / file;
   if (!fs::is_regular_file(p))
     throw ApiError(404, "name", "job " + id + " has no file '" + file +
                                     "' (terrain runs have the rasters max_depth, max_speed, deposit_depth, max_hv, "
                                     "arrival_time, max_pressure, intensity, the vectors hazard.gpkg and map.png)");
   res.status = 200;
-  if (download) res.set_header("Content-Disposition", attachment("job-" + id + "-" + file));
+  // GeoTIFFs and their styles keep the run's names: QGIS applies NAME.qml to NAME.tif beside it. Other
+  // downloads are named after the job.
+  const bool styled = p.extension() == ".tif" || p.extension() == ".qml";
+  if (download) res.set_header("Content-Disposition", attachment(styled ? file : "job-" + id + "-" + file));
   res.set_content(read_file(p), type);
 }
 
@@ -62,14 +67,13 @@ void Server::Impl::routes_results() {
           throw ApiError(400, "name", "raster name must be 1 to 64 of A-Z a-z 0-9 _ . - without '..'");
         send_run_file(m[1].str(), m[2].str() + ".tif", res, "image/tiff; application=geotiff", true);
       });
-  // The raster's QGIS style, written beside it by the run: a client loading the GeoTIFF (the QGIS provider,
-  // docs/qgis.md) styles it as `runout run` users see it.
+  // A raster's QGIS style (the .qml the run wrote beside its GeoTIFF), so that a downloaded raster keeps its colours.
   add(R"(/jobs/(\d{1,18})/rasters/(.+)\.qml)", "GET",
       [this](const httplib::Request& req, httplib::Response& res, const std::smatch& m) {
         only_params(req, {});
         if (!safe_file_name(m[2].str()))
           throw ApiError(400, "name", "raster name must be 1 to 64 of A-Z a-z 0-9 _ . - without '..'");
-        send_run_file(m[1].str(), m[2].str() + ".qml", res, "text/xml; charset=utf-8", true);
+        send_run_file(m[1].str(), m[2].str() + ".qml", res, "application/xml", true);
       });
   // The inundated area and the intensity classes as polygons (the run's rasters/hazard.gpkg).
   add(R"(/jobs/(\d{1,18})/vectors/hazard\.gpkg)", "GET",

@@ -135,7 +135,7 @@ void Server::Impl::routes_sweeps() {
         for (const auto& j : queue->list(std::nullopt, id, 100000, 0)) {
           variants += (variants.empty() ? "" : ", ") + j.variant;
           if (j.status != "done" || !j.run_id) continue;
-          in.runs.push_back({*j.run_id, j.variant, out_dir_of(j)});
+          in.runs.push_back({*j.run_id, j.variant, out_dir_of(j), j.out_dir});
           if (baseline.empty() ? in.baseline_id == 0 : j.variant == baseline) in.baseline_id = *j.run_id;
         }
         if (in.runs.empty())

@@ -250,11 +250,41 @@ void Server::Impl::run_job(const Job& job) {
       spdlog::info("job {} stopped by shutdown: back in the queue", job.id);
     } else {
       if (latest) queue->progress(job.id, latest->time, latest->duration, latest->steps, latest->wall_seconds, std::nullopt);
+      if (status == "done" && job.sweep_id) {  // before it reads done, so that a done job has them
+        Job done = job;
+        done.status = "done";
+        done.run_id = run_id;
+        done.reused = reused;
+        write_sweep_differences(done);
+      }
       queue->finish(job.id, status, run_id, reused, error);
       spdlog::info("job {} {}{}{}", job.id, status, error.empty() ? "" : ": ", error);
     }
   } catch (const std::exception& e) {
     spdlog::error("job {}: could not record '{}': {} (it is requeued at the next start)", job.id, status, e.what());
+  }
+}
+
+// A sweep's difference rasters, as `runout sweep` writes them: each done layout minus the sweep's first layout
+// (its baseline), into the layout's own job folder (a reused run's rasters belong to the job that made it, and
+// perhaps to another sweep with another baseline), as soon as both are done. `finished`: the job about to be
+// recorded done. One writer at a time: two workers finishing together would write the same files.
+void Server::Impl::write_sweep_differences(const Job& finished) {
+  std::lock_guard lock(differences_mutex);
+  const int64_t sweep_id = *finished.sweep_id;
+  auto jobs = queue->list(std::nullopt, sweep_id, 100000, 0);
+  for (auto& j : jobs)
+    if (j.id == finished.id) j = finished;
+  if (jobs.size() < 2 || jobs.front().status != "done") return;
+  const Job& base = jobs.front();
+  for (const auto& j : jobs) {
+    if (j.id == base.id || j.status != "done" || (finished.id != base.id && j.id != finished.id)) continue;
+    try {
+      write_layout_differences(out_dir_of(j) / "rasters", j.variant, out_dir_of(base) / "rasters", base.variant,
+                               fs::path(j.out_dir) / "rasters");
+    } catch (const std::exception& e) {
+      spdlog::warn("sweep {}: no difference rasters for job {}: {}", sweep_id, j.id, e.what());
+    }
   }
 }
 
@@ -346,6 +376,11 @@ int Server::start() {
   const int requeued = m.queue->recover();
   if (requeued > 0) spdlog::warn("{} job(s) left running by a previous server are back in the queue", requeued);
   for (int k = 0; k < m.opt.workers; ++k) m.workers.emplace_back([&m, k] { m.worker_loop(k); });
+  std::error_code ec;
+  if (m.opt.shipped_studies && !m.opt.shipped_root.empty() && fs::equivalent(m.opt.scene_dir, m.opt.shipped_root, ec)) {
+    m.shipped["status"] = "storing";
+    m.seeder = std::thread([&m] { m.seed_shipped_studies(); });
+  }
   return m.port;
 }
 
@@ -366,6 +401,7 @@ void Server::stop() {
   if (m.front) m.front->stop();
   for (auto& t : m.workers) t.join();
   m.workers.clear();
+  if (m.seeder.joinable()) m.seeder.join();  // it stops before its next scene
   if (m.launcher) m.launcher->stop();  // launched sweeps: SIGTERM, unfinished jobs back in the queue
 }
 

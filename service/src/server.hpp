@@ -18,6 +18,10 @@ struct ServeOptions {
   std::filesystem::path db = "runout.db";
   std::filesystem::path runs_dir = "runs";  // a job's outputs go to RUNS/service/job-<id>
   std::filesystem::path scene_dir = ".";    // relative file names in scenes (terrain.dem) resolve here
+  // The shipped scenarios folder (scenarios/ of the source tree the binary was built from). When scene_dir is
+  // it and shipped_studies is on, the base scenes of its studies are stored in the background at start.
+  std::filesystem::path shipped_root;
+  bool shipped_studies = true;
   int workers = 1;               // 0: accept and queue jobs, run none
   int threads_per_job = 0;       // OpenMP threads of one job; 0: the cores divided among the jobs running
   // A running job saves its state every this many seconds of wall time and when the service stops, so a

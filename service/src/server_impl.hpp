@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <cstdlib>
 #include <cstdio>
@@ -24,6 +25,7 @@
 // The project's headers (Eigen) before httplib.h: httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen.
 #include "jobs.hpp"
 #include "runout/scenarios/cost_model.hpp"
+#include "runout/scenarios/raster_map.hpp"
 #include "requests.hpp"
 #include "runout/scenarios/store.hpp"
 #include "runout/scenarios/study.hpp"
@@ -131,6 +133,27 @@ inline int64_t int_param(const std::string& name, const std::string& v, int64_t 
   const int64_t x = std::stoll(v);
   if (x < lo || x > hi) throw ApiError(400, name, "must be " + range + " (got " + v + ")");
   return x;
+}
+
+// A number from a query parameter in [lo, hi]; 400 naming the parameter otherwise.
+inline double number_param(const std::string& name, const std::string& v, double lo, double hi) {
+  std::ostringstream range;
+  range << "a number in [" << lo << ", " << hi << "]";
+  char* end = nullptr;
+  const double x = v.empty() || v.size() > 40 ? std::nan("") : std::strtod(v.c_str(), &end);
+  if (!std::isfinite(x) || end != v.c_str() + v.size() || x < lo || x > hi)
+    throw ApiError(400, name, "must be " + range.str() + " (got '" + v.substr(0, 40) + "')");
+  return x;
+}
+
+// 1 to `most` positive integer ids separated by commas; 400 naming the parameter otherwise.
+inline std::vector<int64_t> id_list(const std::string& name, const std::string& v, size_t most) {
+  std::vector<int64_t> ids;
+  std::stringstream ss(v);
+  for (std::string part; std::getline(ss, part, ',');) ids.push_back(int_param(name, part, 1, INT64_MAX / 2));
+  if (ids.empty() || ids.size() > most)
+    throw ApiError(400, name, "must list 1 to " + std::to_string(most) + " job ids separated by commas");
+  return ids;
 }
 
 // Every unknown query parameter, each its own error, into `errors` (or thrown at once without).
@@ -259,6 +282,10 @@ struct Route {
 }  // namespace srv
 
 using namespace srv;
+
+// The base scenes of the shipped studies under ROOT, relative to it, in the order they are stored: the `base`
+// of every sweep file in ROOT's folders (flume/ first, then by name), each once (shipped_studies.cpp).
+std::vector<fs::path> shipped_base_scenes(const fs::path& root);
 
 struct Server::Impl {
   ServeOptions opt;
@@ -419,17 +446,17 @@ struct Server::Impl {
     return header ? header : body;
   }
 
-  Job require_job(const std::string& id_text) const {
+  Job require_job(const std::string& id_text, const char* field = "id") const {
     const int64_t id = std::stoll(id_text);
     auto j = queue->get(id);
-    if (!j) throw ApiError(404, "id", "no job with id " + id_text);
+    if (!j) throw ApiError(404, field, "no job with id " + id_text);
     return *j;
   }
 
   // The stored run of a job, for its results (409 while it has none).
-  int64_t run_of(const Job& j) const {
+  int64_t run_of(const Job& j, const char* field = "status") const {
     if (!j.run_id || (j.status != "done" && j.status != "failed"))
-      throw ApiError(409, "status", "job " + std::to_string(j.id) + " is " + j.status +
+      throw ApiError(409, field, "job " + std::to_string(j.id) + " is " + j.status +
                                         "; results exist once it is done (or failed after running)");
     return *j.run_id;
   }
@@ -448,13 +475,27 @@ struct Server::Impl {
   void routes_estimate();
   void routes_results();
   void routes_maps();
+  std::vector<ColourScale> raster_scales(const fs::path& out_dir);
+  json map_layers_json(const Job& j, const std::string& self, const std::vector<int64_t>& shared);
+  std::mutex scales_mutex;
+  std::map<std::string, std::vector<ColourScale>> scales_cache;  // a run's output folder -> its colour scales
   void send_run_file(const std::string& id, const std::string& file, httplib::Response& res, const char* type,
                      bool download);
   void routes_compare();
+  json sweep_of(int64_t base_job, const std::vector<int64_t>& job_ids) const;
   void serve_web(const httplib::Request& req, httplib::Response& res) const;
   void dispatch(const httplib::Request& req, httplib::Response& res);
   void worker_loop(int index);
   void run_job(const Job& job);
+  void write_sweep_differences(const Job& finished);
+  // The shipped studies' base scenes, stored in the background at start (shipped_studies.cpp); GET /health
+  // reports `shipped`: {status: off | storing | done, offered: [{file, scene_id, name}], failed: [{file, message}]}.
+  void seed_shipped_studies();
+  json shipped_status() const;
+  json shipped = {{"status", "off"}, {"offered", json::array()}, {"failed", json::array()}};
+  mutable std::mutex shipped_mutex;
+  std::thread seeder;
+  std::mutex differences_mutex;
 };
 
 }  // namespace runout::service

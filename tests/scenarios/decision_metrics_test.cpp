@@ -101,5 +101,21 @@ TEST(DecisionMetrics, NaturalOrderComparesDigitRunsAsNumbers) {
   EXPECT_TRUE(natural_less("CD_P1", "FD_P1"));
 }
 
+// Every decision metric has a label for people and a direction (the web page colours differences by it and the
+// report its ranking table): a later arrival and more held back are better, less of the rest.
+TEST(DecisionMetrics, EachDecisionMetricHasALabelAndADirection) {
+  const DecisionMetrics dm(kFlume);
+  EXPECT_EQ(dm.label("monitors.section.Outlet.peak_discharge_m3_s"), "Outlet Q_m [m³/s]");
+  EXPECT_EQ(dm.label("terrain.structures.check_dam.CD_P2.retained_volume_m3"), "CD_P2 retained [m³]");
+  EXPECT_EQ(dm.label("terrain.protected_zones.Village.arrival_time_s"), "Village arrival [s]");
+  EXPECT_EQ(dm.label("steps"), "steps");  // not a decision metric: its own name
+  for (const auto& name : dm.order(kFlume, false)) {
+    EXPECT_NE(dm.label(name), name) << name;
+    const bool higher = name.find("arrival_time_s") != std::string::npos ||
+                        (name.find("_volume_m3") != std::string::npos && name.find("volume_passed") == std::string::npos);
+    EXPECT_EQ(DecisionMetrics::higher_is_better(name), higher) << name;
+  }
+}
+
 }  // namespace
 }  // namespace runout

@@ -191,7 +191,7 @@ TEST(Report, EscapesTextAndRefusesABaselineOrSweepItDoesNotHave) {
   Fixture& f = fixture();
   const auto runs = f.store->list_runs("report-test");
   StudyReportInput in{"<script>alert(1)</script> & co", {}, runs[0].id};
-  for (const auto& r : runs) in.runs.push_back({r.id, r.variant == "C2" ? "C2 \"<i>\"" : r.variant, {}});
+  for (const auto& r : runs) in.runs.push_back({r.id, r.variant == "C2" ? "C2 \"<i>\"" : r.variant, {}, {}});
   const std::string html = study_report_html(*f.store, in);
   EXPECT_EQ(html.find("<script>"), std::string::npos);
   EXPECT_EQ(html.find("<i>"), std::string::npos);
@@ -268,7 +268,7 @@ TEST(Report, TiesGoByNameAndTheLoadsSignAndTheWordsAreExplained) {
       r.metrics_json = json{{"monitors", monitors}}.dump();
       const int64_t id = store.put_run(r);
       if (variant == "C0") in.baseline_id = id;
-      in.runs.push_back({id, variant, {}});
+      in.runs.push_back({id, variant, {}, {}});
     }
     const std::string html = study_report_html(store, in);
     const std::string body = between(between(html, "<table id=\"ranking\"", "</table>"), "<tbody>", "</tbody>");

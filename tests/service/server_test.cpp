@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <set>
 
 #include "runout/scenarios/store.hpp"
@@ -329,14 +330,31 @@ TEST_F(Service, SweepOverAStoredTerrainSceneServesRastersAndTheMap) {
     return it == r.headers.end() ? std::string() : it->second;
   };
   const std::string job_prefix = "job-" + std::to_string(c1) + "-";
-  for (const std::string name : {"max_depth", "max_speed", "deposit_depth"}) {
-    const Reply tif = request("GET", "/api/v1/jobs/" + std::to_string(c1) + "/rasters/" + name + ".tif");
-    ASSERT_EQ(tif.status, 200) << name;
+  // GeoTIFFs keep the run's names, and their QGIS styles are served under the same names, so that QGIS applies
+  // NAME.qml to NAME.tif downloaded beside it. The sweep's difference rasters (C1 minus C0) are C1's.
+  for (const std::string name : {"max_depth", "max_speed", "deposit_depth", "diff_max_depth", "diff_max_hv"}) {
+    const std::string path = "/api/v1/jobs/" + std::to_string(c1) + "/rasters/" + name;
+    const Reply tif = request("GET", path + ".tif");
+    ASSERT_EQ(tif.status, 200) << name << ": " << tif.text.substr(0, 300);
     EXPECT_EQ(tif.text, read_text(out / "rasters" / (name + ".tif"))) << name;
     EXPECT_EQ(tif.text.substr(0, 4), std::string("II*\0", 4));
     EXPECT_EQ(header(tif, "Content-Type"), "image/tiff; application=geotiff");
-    EXPECT_EQ(header(tif, "Content-Disposition"), "attachment; filename=\"" + job_prefix + name + ".tif\"");
+    EXPECT_EQ(header(tif, "Content-Disposition"), "attachment; filename=\"" + name + ".tif\"");
+    const Reply qml = request("GET", path + ".qml");
+    ASSERT_EQ(qml.status, 200) << name << ": " << qml.text.substr(0, 300);
+    EXPECT_EQ(qml.text, read_text(out / "rasters" / (name + ".qml"))) << name;
+    EXPECT_NE(qml.text.find("<qgis"), std::string::npos) << name;
+    EXPECT_EQ(media_type(qml.headers), "application/xml");
+    EXPECT_EQ(header(qml, "Content-Disposition"), "attachment; filename=\"" + name + ".qml\"");
   }
+  // The baseline has none of its own.
+  EXPECT_EQ(request("GET", "/api/v1/jobs/" + std::to_string(c0) + "/rasters/diff_max_depth.tif").status, 404);
+  EXPECT_EQ(request("GET", "/api/v1/jobs/" + std::to_string(c1) + "/rasters/nope.qml").status, 404);
+  EXPECT_EQ(request("GET", "/api/v1/jobs/" + std::to_string(c1) + "/rasters/..%2Fmetrics.qml").status, 400);
+  // The sweep's report shows them.
+  const Reply report = request("GET", "/api/v1/sweeps/" + std::to_string(sweep.body.at("id").get<int64_t>()) + "/report.html");
+  ASSERT_EQ(report.status, 200);
+  EXPECT_NE(report.text.find("data-raster=\"diff_max_depth\""), std::string::npos);
   // The hazard polygons: the run's rasters/hazard.gpkg, a GeoPackage (SQLite) file.
   const Reply gpkg = request("GET", "/api/v1/jobs/" + std::to_string(c1) + "/vectors/hazard.gpkg");
   ASSERT_EQ(gpkg.status, 200) << gpkg.text.substr(0, 300);
@@ -362,6 +380,116 @@ TEST_F(Service, SweepOverAStoredTerrainSceneServesRastersAndTheMap) {
   ASSERT_EQ(cmp.status, 200) << cmp.text;
   EXPECT_EQ(cmp.body.at("baseline").at("label"), "C0");
   EXPECT_EQ(cmp.body.at("jobs")[0].at("label"), "C1");
+  // Jobs of one sweep: its report, with the baseline's variant.
+  const std::string sid_text = std::to_string(sweep.body.at("id").get<int64_t>());
+  EXPECT_EQ(cmp.body.at("sweep").at("report"), "/api/v1/sweeps/" + sid_text + "/report.html?baseline=C0");
+  EXPECT_EQ(cmp.body.at("sweep").at("name"), "flume-test");
+  EXPECT_TRUE(get("/compare?jobs=" + std::to_string(c0) + "," + std::to_string(flat.body.at("id").get<int64_t>()))
+                  .body.at("sweep").is_null());
+  // Each row says which way is better (decision metrics only) and names the metric for people.
+  std::map<std::string, json> rows;
+  for (const auto& r : cmp.body.at("metrics")) rows[r.at("metric")] = r;
+  const json q = rows.at("monitors.section.Outlet.peak_discharge_m3_s");
+  EXPECT_EQ(q.at("better"), "lower");
+  EXPECT_EQ(q.at("label"), "Outlet Q_m [m³/s]");
+  EXPECT_EQ(rows.at("terrain.protected_zones.Village.arrival_time_s").at("better"), "higher");
+  EXPECT_EQ(rows.at("terrain.protected_zones.Village.arrival_time_s").at("label"), "Village arrival [s]");
+  EXPECT_TRUE(rows.at("steps").at("better").is_null());
+  EXPECT_EQ(rows.at("steps").at("label"), "steps");
+
+  // Maps of both on one colour scale: each ramp spans the larger of the two rasters' largest values, and the
+  // picture is coloured on it.
+  const json own0 = get("/jobs/" + std::to_string(c0) + "/map.json").body;
+  const json own1 = get("/jobs/" + std::to_string(c1) + "/map.json").body;
+  const Reply shared = get("/jobs/" + std::to_string(c1) + "/map.json?shared=" + std::to_string(c0));
+  ASSERT_EQ(shared.status, 200) << shared.text;
+  EXPECT_EQ(shared.body.at("shared").at("jobs"), json::array({c0, c1}));
+  EXPECT_TRUE(own1.at("shared").is_null());
+  for (size_t k = 0; k < own1.at("layers").size(); ++k) {
+    const json& a = own0.at("layers")[k].at("scale");
+    const json& b = own1.at("layers")[k].at("scale");
+    const json& l = shared.body.at("layers")[k];
+    if (b.at("classes").get<bool>()) {
+      EXPECT_EQ(l.at("scale"), b);
+      continue;
+    }
+    const double top = std::max(a.at("data_max").get<double>(), b.at("data_max").get<double>());
+    EXPECT_EQ(l.at("scale").at("data_max"), b.at("data_max")) << l.dump();
+    EXPECT_EQ(l.at("scale").at("shared"), true);
+    if (top > l.at("scale").at("min").get<double>()) {
+      EXPECT_DOUBLE_EQ(l.at("scale").at("max").get<double>(), top) << l.dump();
+    }
+    const std::string image = l.at("image");
+    ASSERT_NE(image.find("?max="), std::string::npos) << image;
+    const Reply pic = request("GET", image);
+    EXPECT_EQ(pic.status, 200) << image;
+    EXPECT_EQ(pic.text.substr(1, 3), "PNG");
+  }
+  EXPECT_EQ(get("/jobs/" + std::to_string(c1) + "/map.json?shared=999").status, 404);
+  EXPECT_EQ(first_error(get("/jobs/" + std::to_string(c1) + "/map.json?shared=x").body).at("field"), "shared");
+  const Reply bad_max = request("GET", "/api/v1/jobs/" + std::to_string(c1) + "/rasters/max_depth.png?max=-1");
+  EXPECT_EQ(bad_max.status, 400);
+  EXPECT_NE(bad_max.text.find("\"max\""), std::string::npos) << bad_max.text;
+}
+
+// A fresh `runout serve` (no --scene-dir) offers the shipped studies' base scenes: stored in the background (a
+// catchment takes ~13 s to check) while cheap requests answer at once, their file names relative to the shipped
+// scenarios folder, which stays the boundary a scene's files must not leave.
+TEST_F(Service, AFreshServiceOffersTheShippedStudies) {
+  using Clock = std::chrono::steady_clock;
+  start({"--workers", "0", "--shipped-studies", "on"});
+  const auto t0 = Clock::now();
+  const Reply health = get("/health");
+  const Reply scenes = get("/scenes");
+  EXPECT_LT(Clock::now() - t0, 2s);
+  ASSERT_EQ(health.status, 200);
+  ASSERT_EQ(scenes.status, 200);
+  EXPECT_EQ(health.body.at("shipped_studies").at("status"), "storing") << health.body.dump();
+  json status;
+  for (const auto end = Clock::now() + 600s; Clock::now() < end; std::this_thread::sleep_for(500ms)) {
+    const auto t = Clock::now();
+    status = get("/health").body.at("shipped_studies");
+    EXPECT_LT(Clock::now() - t, 2s) << "GET /health while the studies are checked";
+    if (status.at("status") == "done") break;
+  }
+  ASSERT_EQ(status.at("status"), "done") << status.dump();
+  EXPECT_EQ(status.at("failed"), json::array()) << status.dump();
+  std::map<std::string, json> offered;  // file -> {scene_id, name}
+  for (const auto& o : status.at("offered")) offered[o.at("file")] = o;
+  for (const char* file : {"flume/flume.json", "catchment/jacksboro_g.json", "catchment/alr.json"})
+    ASSERT_TRUE(offered.count(file)) << file << " in " << status.dump();
+  EXPECT_EQ(status.at("offered")[0].at("file"), "flume/flume.json");  // first: it is offered within a second
+  EXPECT_EQ(get("/scenes").body.at("scenes").size(), offered.size());
+  auto scene_of = [&](const char* file) { return get("/scenes/" + std::to_string(offered.at(file).at("scene_id").get<int64_t>())).body; };
+  // File names relative to the scenarios folder, resolving to the shipped files.
+  const json flume = scene_of("flume/flume.json");
+  EXPECT_EQ(flume.at("name"), "flume");
+  EXPECT_EQ(flume.at("structures").size(), 5u);
+  EXPECT_EQ(flume.at("scene").at("terrain").at("dem"), "flume/flume_dem.asc");
+  const json alr = scene_of("catchment/alr.json");
+  EXPECT_EQ(alr.at("scene").at("terrain").at("dem"), "dem/alr_5m.tif");
+  EXPECT_EQ(scene_of("catchment/jacksboro_g_gpkg.json").at("scene").at("release").at("polygon").at("layer"), "catchment/layouts.gpkg");
+  // A layout of the catchment is a job the service accepts.
+  const Reply est = post("/estimate", {{"scene_id", alr.at("id")}, {"structures", {"Dam1"}}, {"fidelity", "draft"}});
+  EXPECT_EQ(est.status, 200) << est.text.substr(0, 400);
+  // The folder stays the boundary: a name that leaves it is refused, naming the field.
+  json escape = flume.at("scene");
+  escape["name"] = "escape";
+  escape["terrain"]["dem"] = "../README.md";
+  const Reply refused = post("/scenes", escape);
+  EXPECT_EQ(refused.status, 422);
+  EXPECT_EQ(first_error(refused.body).at("field"), "terrain.dem");
+  escape["terrain"]["dem"] = "dem/../../README.md";
+  EXPECT_EQ(post("/scenes", escape).status, 422);
+
+  // Restarted on the same file: found by their hash, not checked again (done at once), nothing stored twice.
+  EXPECT_EQ(server_.terminate() >> 8, 0);
+  start({"--workers", "0", "--shipped-studies", "on"});
+  const auto t1 = Clock::now();
+  for (; Clock::now() - t1 < 20s; std::this_thread::sleep_for(200ms))
+    if (get("/health").body.at("shipped_studies").at("status") == "done") break;
+  EXPECT_LT(Clock::now() - t1, 20s);
+  EXPECT_EQ(get("/scenes").body.at("scenes").size(), offered.size());
 }
 
 TEST_F(Service, SigtermPutsTheRunningJobBackInTheQueue) {

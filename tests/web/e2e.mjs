@@ -1,14 +1,17 @@
-// End-to-end test of the web page (docs/web.md, issue 6) in headless Chromium (Debian's /usr/bin/chromium,
-// driven by playwright-core from web/package-lock.json). It starts the real `runout serve --port 0` on a
-// scratch database, and through the page: stores a short flume scene (after a refused one, whose API message
-// must show beside the scene field), picks one check dam, checks the estimate against POST /estimate, submits
-// that layout and the baseline without it, waits for both, opens the compare view against the baseline and
-// checks every number of the table against GET /compare, the decision metrics first and the layouts ranked,
-// checks the charts, both maps (Leaflet: rasters, legends, vectors, zoom) and the download links, types a bad dp
-// and checks the API's message beside the field, and saves screenshots at 1280x800 and 390x844.
+// End-to-end test of the web page (docs/web.md, issues 6 and 48) in headless Chromium (Debian's
+// /usr/bin/chromium, driven by playwright-core from web/package-lock.json). It starts a fresh `runout serve
+// --port 0` (scratch database, no --scene-dir: the shipped studies are offered), and through the page: a
+// refused pasted scene shows the API's message beside the scene field; it picks the shipped flume, checks a
+// layout's estimate against POST /estimate, uploads a sweep file (the shipped C0-C7 file cut to C0 and C4) and
+// submits it, waits for both jobs, opens the compare view against C0 and checks every number of the table
+// against GET /compare (C4's Village arrival reads "never"), the labels, the better/worse colours by each
+// metric's direction, the decision metrics first and the layouts ranked, the link to the sweep's report (with
+// its intensity and difference maps), the charts, both maps on one shared colour scale (Leaflet: rasters,
+// legends, vectors, zoom) and the download links (GeoTIFFs with their .qml styles), types a bad dp and checks
+// the API's message beside the field, and saves screenshots at 1280x800 and 390x844.
 //
 //   node tests/web/e2e.mjs --runout BUILD/runout --npm-dir BUILD/web-npm --flume scenarios/flume \
-//        --out BUILD/web-e2e [--docs docs/web] [--timeout 1500]
+//        --out BUILD/web-e2e [--docs docs/web] [--report-docs docs/report] [--timeout 1500]
 import { spawn } from 'node:child_process';
 import { createRequire } from 'node:module';
 import fs from 'node:fs';
@@ -23,6 +26,7 @@ const { values: args } = parseArgs({
     flume: { type: 'string' },
     out: { type: 'string' },
     docs: { type: 'string' },
+    'report-docs': { type: 'string' },
     timeout: { type: 'string', default: '1500' },
   },
 });
@@ -76,7 +80,7 @@ function startServer() {
     server = spawn(
       args.runout,
       ['serve', '--port', '0', '--db', path.join(scratch, 'runout.db'), '--runs', path.join(scratch, 'runs'),
-        '--workers', '1', '--threads-per-job', '1', '--scene-dir', path.resolve(args.flume)],
+        '--workers', '1', '--threads-per-job', '1'],  // no --scene-dir: a fresh service, the shipped studies
       { stdio: ['ignore', 'pipe', 'pipe'] },
     );
     let out = '';
@@ -149,25 +153,34 @@ async function checkDecisionView(page, cmp, jobs) {
 // another raster picked from the layer list with its own legend, zoom; then every download link answers 200
 // with its media type.
 async function checkMaps(page, base, jobs, { dam, flume, sections }) {
+  const shared = jobs.join(',');
+  const infos = [];
   for (const job of jobs) {
     const fig = `#maps figure.map[data-job="${job}"]`;
-    const info = (await api(base, 'GET', `/jobs/${job}/map.json`)).json;
+    // The page asks for the maps on one shared scale (map.json?shared=): what it shows must be that.
+    const info = (await api(base, 'GET', `/jobs/${job}/map.json?shared=${[...jobs].sort((x, y) => x - y).join(',')}`)).json;
+    infos.push(info);
     check(info.layers.length >= 4, `map.json of job ${job} lists the rasters (${info.layers.map((l) => l.name)})`);
     equal(info.layers.slice(0, 4).map((l) => l.name).join(), 'max_depth,max_speed,max_pressure,intensity', 'the first layers');
     check(await page.$(`${fig} .leaflet-container`), `job ${job}: a Leaflet map`);
     const overlay = await page.$eval(`${fig} img.leaflet-image-layer.raster`, (img) => ({ src: img.src, w: img.naturalWidth, h: img.naturalHeight }));
-    equal(new URL(overlay.src).pathname, info.layers[0].image, `job ${job}: the first overlay is ${info.layers[0].name}`);
+    const url = new URL(overlay.src);
+    equal(url.pathname + url.search, info.layers[0].image, `job ${job}: the first overlay is ${info.layers[0].name} on the shared scale`);
+    check(/\?max=/.test(info.layers[0].image), `job ${job}: the picture is coloured on the shared scale (${info.layers[0].image})`);
     equal([overlay.w, overlay.h].join('x'), `${info.raster.nx}x${info.raster.ny}`, `job ${job}: the overlay has a pixel per cell`);
     const res = await fetch(overlay.src);
     equal(res.status, 200, `GET ${overlay.src}`);
     equal(res.headers.get('content-type'), 'image/png', `${overlay.src} type`);
     if (info.hillshade) check(await page.$(`${fig} img.leaflet-image-layer.hillshade`), `job ${job}: the hillshade under it`);
-    const legend = async () => page.$eval(`${fig} .legend`, (l) => ({ layer: l.dataset.layer, values: [...l.querySelectorAll('li')].map((li) => Number(li.dataset.value)), labels: [...l.querySelectorAll('li')].map((li) => li.textContent), colours: [...l.querySelectorAll('li')].map((li) => li.dataset.colour) }));
+    const legend = async () => page.$eval(`${fig} .legend`, (l) => ({ layer: l.dataset.layer, values: [...l.querySelectorAll('li')].map((li) => Number(li.dataset.value)), labels: [...l.querySelectorAll('li')].map((li) => li.textContent), colours: [...l.querySelectorAll('li')].map((li) => li.dataset.colour), scope: l.querySelector('.legend-scope')?.dataset.shared, scopeText: l.querySelector('.legend-scope')?.textContent }));
     const expectLegend = (got, layer) => {
       equal(got.layer, layer.name, `job ${job}: the legend's layer`);
       equal(JSON.stringify(got.values), JSON.stringify(layer.scale.stops.map((x) => x.value)), `job ${job}: ${layer.name} legend values`);
       equal(JSON.stringify(got.labels), JSON.stringify(layer.scale.stops.map((x) => x.label)), `job ${job}: ${layer.name} legend labels`);
       equal(JSON.stringify(got.colours), JSON.stringify(layer.scale.stops.map((x) => x.colour)), `job ${job}: ${layer.name} legend colours`);
+      // The legend states that the scale is shared, and this map's own largest value.
+      equal(got.scope, 'true', `job ${job}: the ${layer.name} legend says its scale is shared`);
+      check(/shared by the compared maps/.test(got.scopeText), `job ${job}: the legend's words (${got.scopeText})`);
     };
     expectLegend(await legend(), info.layers[0]);
     // The vector layers: what map.json lists, by name.
@@ -193,21 +206,36 @@ async function checkMaps(page, base, jobs, { dam, flume, sections }) {
     await page.click(`${fig} .leaflet-control-zoom-out`);
     await page.waitForFunction(([f, z]) => Number(document.querySelector(f).dataset.zoom) === z, [fig, z0]);
     await page.click(`${fig} .leaflet-control-layers-base label:has-text("${info.layers[0].title}")`);
-    // Downloads: every raster, the hazard polygons, the series.
+    // Downloads: every raster with its QGIS style (both under the run's names), the layout's difference
+    // rasters, the hazard polygons, the series.
     const links = await page.$$eval(`${fig} .downloads a[download]`, (as) => as.map((a) => ({ href: a.href, type: a.dataset.type, text: a.textContent })));
-    for (const l of info.layers) check(links.some((a) => a.text === `${l.name}.tif`), `job ${job}: a download of ${l.name}.tif`);
+    for (const l of [...info.layers, ...info.differences])
+      for (const ext of ['tif', 'qml']) check(links.some((a) => a.text === `${l.name}.${ext}`), `job ${job}: a download of ${l.name}.${ext}`);
     check(links.some((a) => a.text === 'hazard.gpkg') && links.some((a) => a.text === 'section_' + sections[0] + '.csv'), `job ${job}: hazard.gpkg and series downloads`);
     for (const a of links) {
       const r = await fetch(a.href);
       equal(r.status, 200, `download ${a.text}`);
       check((r.headers.get('content-type') || '').startsWith(a.type), `${a.text}: ${r.headers.get('content-type')} is ${a.type}`);
+      if (/\.(tif|qml)$/.test(a.text))
+        equal(r.headers.get('content-disposition'), `attachment; filename="${a.text}"`, `${a.text} keeps its name`);
       await r.arrayBuffer();
     }
-    log(`map of job ${job}: ${info.layers.length} rasters, legend = scale, ${vectors.length} vectors, zoom, ${links.length} downloads`);
+    log(`map of job ${job}: ${info.layers.length} rasters on the shared scale, ${info.differences.length} differences, legend = scale, ${vectors.length} vectors, zoom, ${links.length} downloads`);
   }
-  const withDam = (await api(base, 'GET', `/jobs/${jobs[0]}/map.json`)).json;
-  equal(withDam.structures.map((x) => x.name).join(), dam.name, 'the dam on its job\'s map');
-  equal((await api(base, 'GET', `/jobs/${jobs[1]}/map.json`)).json.structures.length, 0, 'no structure on the baseline\'s map');
+  // One scale: every ramp of both maps ends at the same top, the larger of the two maps' own largest values.
+  infos[0].layers.forEach((l, k) => {
+    const other = infos[1].layers[k];
+    equal(other.name, l.name, `layer ${k} of both maps`);
+    if (l.scale.classes) return;
+    equal(other.scale.max, l.scale.max, `${l.name}: one scale on both maps`);
+    if (Math.max(l.scale.data_max, other.scale.data_max) > l.scale.min)
+      equal(l.scale.max, Math.max(l.scale.data_max, other.scale.data_max), `${l.name}: the scale's top is the larger maximum`);
+  });
+  equal(infos[0].structures.map((x) => x.name).join(), dam.name, 'the structure on its job\'s map');
+  equal(infos[1].structures.length, 0, 'no structure on the baseline\'s map');
+  equal(infos[0].differences.map((d) => d.name).join(), 'diff_max_depth,diff_max_hv', 'the layout has its difference rasters against the baseline');
+  equal(infos[1].differences.length, 0, 'the baseline has none');
+  check((await page.textContent('#maps-scale')).includes('share one colour scale'), 'the page states that the maps share a scale');
 }
 
 async function main() {
@@ -216,14 +244,18 @@ async function main() {
   const base = await startServer();
   log('server at', base);
 
-  // The flume, short: in 2.4 s the flow reaches the first check dam and, without it, the outlet (so the
-  // layouts rank apart on the outlet's peak discharge); at draft fidelity (dp 0.05 m) a run takes ~10-40 s on
-  // one thread.
+  // The shipped flume study: its base scene (offered by the fresh service) and its sweep file, cut to the
+  // baseline C0 and C4 (the retention basin RB1_P2 at the chute's foot): at draft (dp 0.05 m) a layout takes
+  // ~20-40 s on one thread; with the basin the flow never reaches the Village zone (an arrival "never") and
+  // hardly the outlet, so the two rank apart on the outlet's peak discharge.
   const flume = JSON.parse(fs.readFileSync(path.join(args.flume, 'flume.json'), 'utf8'));
-  flume.name = 'flume-e2e';
-  flume.duration = 2.4;
-  const dam = (flume.structures || []).find((s) => s.type === 'check_dam');
-  check(dam, 'the flume has a check dam among its candidate structures');
+  const study = JSON.parse(fs.readFileSync(path.join(args.flume, 'c0_c7.json'), 'utf8'));
+  const sweepFile = { ...study, name: 'flume-e2e', variants: study.variants.filter((v) => v.name === 'C0' || v.name === 'C4') };
+  equal(sweepFile.variants.map((v) => v.name).join(), 'C0,C4', 'the sweep file\'s layouts');
+  const dam = flume.structures.find((st) => st.name === sweepFile.variants[1].structures[0]);
+  check(dam && dam.type === 'retention_basin', 'C4 builds a retention basin of the flume');
+  const sweepPath = path.join(scratch, 'flume-e2e.json');
+  fs.writeFileSync(sweepPath, JSON.stringify(sweepFile, null, 2));
   const sections = (flume.monitors || []).filter((m) => m.type === 'section').map((m) => m.name);
 
   context = await chromium.launchPersistentContext(profile, {
@@ -251,59 +283,69 @@ async function main() {
   await page.waitForFunction(() => /worker/.test(document.getElementById('health').textContent));
   log('page loaded');
 
+  // A fresh service offers the shipped studies: the flume first, within seconds, while the catchments are
+  // still being checked in the background.
+  const health = (await api(base, 'GET', '/health')).json;
+  check(['storing', 'done'].includes(health.shipped_studies.status), `the shipped studies are being stored (${JSON.stringify(health.shipped_studies)})`);
+  // The page follows /health's list of stored studies: the flume appears without a reload.
+  await page.waitForFunction(() => [...document.querySelectorAll('#scene-select option')].some((o) => o.textContent.startsWith('flume (')), null, { timeout: 120_000 });
+  const flumeScene = (await api(base, 'GET', '/scenes')).json.scenes.find((x) => x.name === 'flume');
+  check(flumeScene, 'the shipped flume is a stored base scene');
+  const sceneId = flumeScene.id;
+  equal((await api(base, 'GET', `/scenes/${sceneId}`)).json.scene.terrain.dem, 'flume/flume_dem.asc', 'the flume\'s DEM inside the scenarios folder');
+  await page.selectOption('#scene-select', String(sceneId));
+  await page.waitForSelector(`#structure-list input[value="${dam.name}"]`);
+  log(`shipped flume offered as scene #${sceneId} (studies ${health.shipped_studies.status})`);
+
   // A refused scene: the API's message beside the scene field.
   const bad = structuredClone(flume);
+  bad.name = 'flume-bad';
   bad.materials[0].density = -1000;
   const refused = await api(base, 'POST', '/scenes', bad);
   equal(refused.status, 422, 'POST /scenes with a negative density');
+  await page.evaluate(() => (document.getElementById('scene-add').open = true));
   await page.fill('#scene-json', JSON.stringify(bad));
   await page.click('#scene-store');
   await page.waitForFunction(() => document.getElementById('err-scene').textContent.length > 0);
   const sceneErr = await page.textContent('#err-scene');
   check(sceneErr.includes(refused.json.errors[0].message) && sceneErr.includes(refused.json.errors[0].field),
     `the scene error beside the field (${sceneErr}) is the API's (${JSON.stringify(refused.json.errors)})`);
+  await page.evaluate(() => (document.getElementById('scene-add').open = false));
 
-  // The real scene, pasted and stored.
-  await page.fill('#scene-json', JSON.stringify(flume));
-  await page.click('#scene-store');
-  await page.waitForFunction((n) => [...document.querySelectorAll('#scene-select option')].some((o) => o.selected && o.textContent.startsWith(n)), flume.name);
-  const sceneId = Number(await page.inputValue('#scene-select'));
-  await page.waitForSelector(`#structure-list input[value="${dam.name}"]`);
-  log(`scene #${sceneId} stored; layouts: ${dam.name} and none`);
+  // One layout: the estimate shown equals POST /estimate's for the same body.
+  await page.selectOption('#fidelity', 'draft');
+  for (const box of await page.$$('#structure-list input[type=checkbox]'))
+    if ((await box.isChecked()) !== ((await box.getAttribute('value')) === dam.name)) await box.click();
+  await page.fill('#variant', 'C4');
+  const est = await api(base, 'POST', '/estimate', { scene_id: sceneId, structures: [dam.name], fidelity: 'draft', variant: 'C4' });
+  equal(est.status, 200, 'POST /estimate C4');
+  const e = est.json;
+  check(e.particles.fluid > 0 && e.particles.boundary > 0 && e.steps_estimate > 0 && e.seconds_estimate > 0, 'estimate C4 is positive');
+  await page.waitForFunction((x) => {
+    const d = document.getElementById('estimate').dataset;
+    return d.fluid === String(x.particles.fluid) && d.boundary === String(x.particles.boundary) &&
+      d.steps === String(x.steps_estimate) && d.seconds === String(x.seconds_estimate);
+  }, e);
+  checks++;
 
-  // Submits a layout after the estimate shown equals POST /estimate's for the same body.
-  async function submitLayout(structures, label) {
-    await page.selectOption('#fidelity', 'draft');
-    for (const box of await page.$$('#structure-list input[type=checkbox]')) {
-      const want = structures.includes(await box.getAttribute('value'));
-      if ((await box.isChecked()) !== want) await box.click();
-    }
-    await page.fill('#variant', label);
-    const body = { scene_id: sceneId, structures, fidelity: 'draft', variant: label };
-    const est = await api(base, 'POST', '/estimate', body);
-    equal(est.status, 200, `POST /estimate ${label}`);
-    const e = est.json;
-    check(e.particles.fluid > 0 && e.particles.boundary > 0 && e.steps_estimate > 0 && e.seconds_estimate > 0, `estimate ${label} is positive`);
-    await page.waitForFunction((x) => {
-      const d = document.getElementById('estimate').dataset;
-      return d.fluid === String(x.particles.fluid) && d.boundary === String(x.particles.boundary) &&
-        d.steps === String(x.steps_estimate) && d.seconds === String(x.seconds_estimate);
-    }, e);
-    checks++;
-    const before = (await api(base, 'GET', '/jobs')).json.total;
-    await page.click('#submit-btn');
-    await page.waitForFunction((n) => document.getElementById('submit-status').textContent.startsWith(`job #${n} `), before + 1);
-    const jobs = (await api(base, 'GET', '/jobs')).json;
-    equal(jobs.total, before + 1, `one job more after submitting ${label}`);
-    const job = jobs.jobs[jobs.jobs.length - 1];
-    equal(job.id, before + 1, 'the new job\'s id');
-    equal(job.variant, label, 'the new job is the layout submitted');
-    equal(job.particles, e.particles.total, `job ${job.id}'s particles equal the estimate's`);
-    return job.id;
-  }
-  const withDam = await submitLayout([dam.name], `with-${dam.name}`);
-  const baseline = await submitLayout([], 'baseline');
-  log(`submitted job ${withDam} (${dam.name}) and job ${baseline} (baseline)`);
+  // The sweep file, uploaded: its layouts' estimates summed, then submitted as a sweep on the flume.
+  await page.check('input[name=mode][value=file]');
+  await page.setInputFiles('#sweep-file', sweepPath);
+  const layoutSeconds = await Promise.all(sweepFile.variants.map(async (v) =>
+    (await api(base, 'POST', '/estimate', { scene_id: sceneId, structures: v.structures, fidelity: 'draft' })).json.seconds_estimate));
+  await page.waitForFunction((x) => document.getElementById('estimate').dataset.jobs === '2' &&
+    document.getElementById('estimate').dataset.seconds === String(x), layoutSeconds.reduce((a, x) => a + x, 0));
+  checks++;
+  await page.click('#submit-btn');
+  await page.waitForFunction(() => /^sweep #\d+ flume-e2e: 2 jobs queued/.test(document.getElementById('submit-status').textContent));
+  const sweeps = (await api(base, 'GET', '/sweeps')).json.sweeps;
+  equal(sweeps.length, 1, 'one sweep');
+  equal(sweeps[0].scene_id, sceneId, 'the sweep runs on the flume');
+  const sweepJobsDone = (await api(base, 'GET', `/jobs?sweep=${sweeps[0].id}`)).json.jobs;
+  equal(JSON.stringify(sweepJobsDone.map((j) => [j.variant, j.fidelity])), JSON.stringify([['C0', 'draft'], ['C4', 'draft']]), 'the sweep\'s jobs');
+  const [baseline, withDam] = sweepJobsDone.map((j) => j.id);
+  log(`sweep file submitted: job ${baseline} (C0) and job ${withDam} (C4, ${dam.name})`);
+  await page.check('input[name=mode][value=single]');
   await page.screenshot({ path: path.join(args.out, 'running-1280x800.png') });
 
   // Both finish; the page shows it. A failed or cancelled job fails the test at once.
@@ -330,15 +372,22 @@ async function main() {
   const table = await page.$$eval('#compare-table tbody tr', (trs) =>
     trs.map((tr) => ({
       metric: tr.dataset.metric,
-      cells: [...tr.querySelectorAll('td')].map((td) => ({ kind: td.dataset.kind, job: td.dataset.job, value: td.dataset.value, text: td.textContent })),
+      head: tr.querySelector('th').textContent,
+      title: tr.querySelector('th').title,
+      cells: [...tr.querySelectorAll('td')].map((td) => ({ kind: td.dataset.kind, job: td.dataset.job, value: td.dataset.value, text: td.textContent, judged: td.dataset.judged ?? null, cls: td.className })),
     })));
   equal(table.length, cmp.json.metrics.length, 'rows of the metrics table');
   check(cmp.json.metrics.length > 20, 'the comparison has the run metrics');
   const differing = cmp.json.metrics.filter((m) => m.difference[0] != null && m.difference[0] !== 0).length;
-  check(differing > 0, 'the check dam changes some metric');
+  check(differing > 0, 'the basin changes some metric');
+  let judged = 0;
   cmp.json.metrics.forEach((m, k) => {
     const row = table[k];
     equal(row.metric, m.metric, `row ${k}`);
+    // The heading is the API's label for people (the stored name for metrics without one).
+    equal(row.head, m.label, `${m.metric}: its heading`);
+    equal(row.title, m.metric, `${m.metric}: the stored name in the heading's tooltip`);
+    if (m.decision) check(m.label !== m.metric && /\[.+\]$/.test(m.label), `${m.metric}: a decision metric has a label with its unit (${m.label})`);
     const want = [
       ['baseline', baseline, m.baseline, 6, m.baseline_never],
       ['value', withDam, m.values[0], 6, m.never[0]],
@@ -354,10 +403,35 @@ async function main() {
       // that never happened (null with its never flag) reads "never".
       equal(cell.value, v == null ? '' : String(v), `${m.metric} ${kind} value`);
       equal(cell.text, never ? 'never' : tableNumber(v, digits), `${m.metric} ${kind} text`);
+      // Differences coloured by better or worse in the metric's own direction (a later arrival, more held
+      // back: better), not by sign; metrics without a direction are not judged.
+      if (kind === 'difference' || kind === 'percent') {
+        const expect = !m.better || v == null || v === 0 ? null : (m.better === 'higher') === (v > 0) ? 'better' : 'worse';
+        equal(cell.judged, expect, `${m.metric} ${kind}: judged`);
+        if (expect) check(cell.cls.includes(expect), `${m.metric} ${kind}: coloured ${expect} (${cell.cls})`);
+        judged += expect ? 1 : 0;
+      }
     });
   });
-  log(`compare table: ${table.length} metrics equal the API's (${differing} differ)`);
+  // The basin lowers the outlet's peak discharge: better, in green, though the difference is negative.
+  const q = table.find((r) => r.metric === `monitors.section.${cmp.json.outlet}.peak_discharge_m3_s`);
+  check(cmp.json.metrics.find((m) => m.metric === q.metric).difference[0] < 0 && q.cells[2].judged === 'better', 'a lower outlet peak discharge reads better');
+  // "never": C4's Village arrival, shown as the word.
+  const village = 'terrain.protected_zones.Village.arrival_time_s';
+  const vrow = table.find((r) => r.metric === village);
+  check(vrow && vrow.cells[1].text === 'never' && vrow.cells[0].text !== 'never', `C4 never reaches the Village, C0 does (${JSON.stringify(vrow)})`);
+  equal(await page.$eval(`#compare-table td[data-metric="${village}"][data-kind="value"]`, (td) => td.dataset.never), 'true', 'the never cell is marked');
+  log(`compare table: ${table.length} metrics equal the API's (${differing} differ, ${judged} judged better/worse; Village: never)`);
   await checkDecisionView(page, cmp.json, [baseline, withDam]);
+
+  // The sweep's report, linked from the compare view: the intensity and the difference maps the service wrote.
+  const reportHref = await page.$eval('#report-link a', (a) => a.getAttribute('href'));
+  equal(reportHref, cmp.json.sweep.report, 'the page links the sweep\'s report');
+  equal(reportHref, `/api/v1/sweeps/${sweeps[0].id}/report.html?baseline=C0`, 'the report of the sweep, against C0');
+  const report = await fetch(`${base}${reportHref}`);
+  equal(report.status, 200, 'GET the report');
+  const reportHtml = await report.text();
+  check(reportHtml.includes('data-raster="intensity"') && reportHtml.includes('data-raster="diff_max_depth"'), 'the report has intensity and difference maps');
 
   // Charts: a hydrograph per cross-section, force and pressure on the dam, the front position; maps.
   const charts = await page.$$eval('#charts figure.chart', (fs) => fs.map((f) => ({ id: f.dataset.chart, canvas: !!f.querySelector('canvas') })));
@@ -452,6 +526,23 @@ async function main() {
   await page.evaluate(() => document.getElementById('maps').scrollIntoView({ block: 'start' }));
   await page.waitForTimeout(300); // Leaflet follows the window's resize
   await shot('web-phone-maps-390x844.png');
+
+  // The report's maps for docs/report: a page of its own (nothing fetched: the report is self-contained).
+  const reportPage = await context.newPage();
+  await reportPage.setViewportSize({ width: 1280, height: 800 });
+  await reportPage.goto(`${base}${reportHref}`);
+  const hazard = await reportPage.$('figure.map.hazard[data-raster="intensity"]');
+  check(hazard, 'the report page shows the intensity map');
+  await hazard.scrollIntoViewIfNeeded();
+  await reportPage.evaluate(() => window.scrollBy(0, -60));
+  const reportShot = path.join(args.out, 'report-intensity-1280x800.png');
+  await reportPage.screenshot({ path: reportShot });
+  shots.push(reportShot);
+  if (args['report-docs']) {
+    fs.mkdirSync(args['report-docs'], { recursive: true });
+    fs.copyFileSync(reportShot, path.join(args['report-docs'], 'report-intensity-1280x800.png'));
+  }
+  await reportPage.close();
 
   check(problems.length === 0, `no errors in the page: ${problems.join('; ')}`);
   check(foreign.length === 0, `nothing fetched from elsewhere: ${foreign.join(', ')}`);

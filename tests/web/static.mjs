@@ -28,7 +28,7 @@ function startServer(dir, extra) {
   fs.mkdirSync(dir, { recursive: true });
   return new Promise((resolve, reject) => {
     const child = spawn(args.runout, ['serve', '--port', '0', '--db', path.join(dir, 'runout.db'), '--runs', path.join(dir, 'runs'),
-      '--workers', '0', ...extra], { stdio: ['ignore', 'pipe', 'pipe'] });
+      '--workers', '0', '--shipped-studies', 'off', ...extra], { stdio: ['ignore', 'pipe', 'pipe'] });
     let out = '';
     child.stdout.on('data', (d) => {
       out += d;

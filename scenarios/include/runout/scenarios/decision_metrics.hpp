@@ -43,6 +43,12 @@ class DecisionMetrics {
   bool is_decision(const std::string& metric) const { return rank(metric).has_value(); }
   // The names reordered: decision metrics by rank, then (with `all`) the rest in their given order.
   std::vector<std::string> order(const std::vector<std::string>& names, bool all) const;
+  // A heading for people: what the metric is, of which subject, in which unit ("Outlet Q_m [m³/s]",
+  // "Village arrival [s]"); the stored name itself for a metric that is not a decision metric.
+  std::string label(const std::string& metric) const;
+  // Whether a rise from the baseline improves a layout: a later arrival, more held back; for every other
+  // decision metric less is better. The report and GET /compare colour differences by it.
+  static bool higher_is_better(const std::string& metric);
 
  private:
   std::string outlet_;

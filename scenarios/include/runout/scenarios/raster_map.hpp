@@ -25,6 +25,7 @@ struct ColourScale {
   // Cells left transparent: nodata always; below `min`; zero too when zero means "nothing here" (every layer
   // but the arrival time, where 0 s is the release).
   bool zero_transparent = true;
+  double data_max = 0;      // the largest value the scale was made for (a shared scale: the largest of several runs)
 };
 
 // The rasters a map offers, in the order a legend or a layer control lists them: max_depth, max_speed,
@@ -46,10 +47,15 @@ struct RasterPicture {
 // The raster OUT/rasters/<layer>.tif of the run in `out_dir`, coloured. The inundation threshold is the run's
 // (OUT/metrics.json, terrain.inundation.threshold_m). nullopt when the run has no such raster (not a terrain
 // run); throws std::invalid_argument for a layer not in map_layers(), std::runtime_error for an unreadable file.
-std::optional<RasterPicture> render_run_raster(const std::filesystem::path& out_dir, const std::string& layer);
+// `top`: the ramp's largest value instead of the raster's own (maps of several runs on one shared scale).
+std::optional<RasterPicture> render_run_raster(const std::filesystem::path& out_dir, const std::string& layer,
+                                               std::optional<double> top = std::nullopt);
 
-// The colour scales of the run's rasters (map_layers() order, those the run has), without rendering.
+// The colour scales of the run's rasters (map_layers() order, those the run has), without rendering; each
+// scale's data_max is the raster's largest value.
 std::vector<ColourScale> run_raster_scales(const std::filesystem::path& out_dir);
+// The inundation threshold the run's depth scales start from (OUT/metrics.json; 0 without it).
+double run_inundation_threshold(const std::filesystem::path& out_dir);
 
 // A sweep's difference raster OUT/rasters/diff_<name>.tif (name "max_depth" or "max_hv": the layout's raster
 // minus the baseline layout's, docs/terrain.md): a diverging scale symmetric about 0 to the largest |d|, blue

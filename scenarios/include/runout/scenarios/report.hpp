@@ -18,6 +18,9 @@ struct ReportRun {
   int64_t run_id = 0;
   std::string label;                // the layout ("C3"); empty: the stored variant
   std::filesystem::path out_dir;    // the run's output folder (maps); empty or missing: no map
+  // The folder whose rasters/ holds the sweep's difference rasters of this layout (diff_*.tif), where it is not
+  // out_dir (a service job that reused another job's run); empty: out_dir.
+  std::filesystem::path differences_dir;
 };
 
 struct StudyReportInput {

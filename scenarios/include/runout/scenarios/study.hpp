@@ -92,4 +92,11 @@ std::vector<std::string> write_difference_rasters(const std::filesystem::path& s
 // layouts against that member's first layout (the baseline at the same material and volume).
 std::vector<std::string> write_sweep_differences(const std::filesystem::path& sweep_dir, const Sweep& sweep);
 
+// One layout's difference rasters against the baseline's, as write_difference_rasters writes them, where the
+// runs' folders are not laid out as SWEEP_DIR/<variant> (the service's jobs): RASTERS/<name>.tif minus
+// BASE_RASTERS/<name>.tif into OUT_RASTERS/diff_<name>.tif and .qml. False when a raster is missing.
+bool write_layout_differences(const std::filesystem::path& rasters, const std::string& variant,
+                              const std::filesystem::path& base_rasters, const std::string& baseline,
+                              const std::filesystem::path& out_rasters);
+
 }  // namespace runout
