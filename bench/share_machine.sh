@@ -9,7 +9,7 @@ set -uo pipefail
 B=${1:-build}/runout
 OUT=${2:-/tmp/share-machine-bench}
 REPEAT=${3:-2}
-CAP=300  # [s] a pair that has not finished by then is reported as "> CAP"
+CAP=120  # [s] a pair that has not finished by then is reported as "> CAP"
 mkdir -p "$OUT"
 : > "$OUT/results.txt"
 declare -A POLICY=([default]="GOMP_SPINCOUNT=300000" [passive]="OMP_WAIT_POLICY=passive" [spin10k]="GOMP_SPINCOUNT=10000" [spin1k]="GOMP_SPINCOUNT=1000")
