@@ -136,7 +136,7 @@ Ensemble parse_ensemble(const std::string& ensemble_json, const std::string& bas
   const json e = json::parse(ensemble_json);
   const json base = json::parse(base_json);
   if (!e.is_object()) throw SceneError("ensemble", "must be an object {parameters, members, seed}");
-  check_keys(e, "ensemble", {"parameters", "members", "seed"});
+  check_keys(e, "ensemble", {"parameters", "members", "seed", "pressure_thresholds_pa"});
   Ensemble out;
   if (!e.contains("parameters") || !e["parameters"].is_array() || e["parameters"].empty() || e["parameters"].size() > 16)
     throw SceneError("ensemble.parameters", "must be an array of 1 to 16 parameters");
@@ -150,6 +150,15 @@ Ensemble parse_ensemble(const std::string& ensemble_json, const std::string& bas
   if (e.contains("seed")) {
     if (!e["seed"].is_number_unsigned()) throw SceneError("ensemble.seed", "must be an integer >= 0");
     out.seed = e["seed"].get<uint64_t>();
+  }
+  if (e.contains("pressure_thresholds_pa")) {
+    const json& t = e["pressure_thresholds_pa"];
+    bool ok = t.is_array() && !t.empty() && t.size() <= 8;
+    for (size_t k = 0; ok && k < t.size(); ++k)
+      ok = t[k].is_number() && t[k].get<double>() > 0.0 && t[k].get<double>() <= 1e8 &&
+           (k == 0 || t[k].get<double>() > t[k - 1].get<double>());
+    if (!ok) throw SceneError("ensemble.pressure_thresholds_pa", "must be 1 to 8 ascending pressures in (0, 1e8] Pa");
+    out.pressure_thresholds_pa = t.get<std::vector<double>>();
   }
   if (sampled > 0) {
     if (!e.contains("members") || !e["members"].is_number_integer() || e["members"].get<long>() < 1 ||

@@ -249,6 +249,35 @@ std::optional<RasterPicture> render_difference_raster(const fs::path& out_dir, c
   return p;
 }
 
+ColourScale probability_colour_scale(const std::string& title) {
+  ColourScale s;
+  s.layer = "exceedance";
+  s.title = title;
+  s.unit = "probability";
+  s.stops = {{0.0, "#ffffcc", "0"}, {0.25, "#fed976", "0.25"}, {0.5, "#fd8d3c", "0.5"},
+             {0.75, "#e31a1c", "0.75"}, {1.0, "#800026", "1"}};
+  s.min = 0.0;
+  s.max = 1.0;
+  s.data_max = 1.0;
+  return s;  // 0 (no member reaches it) stays transparent, as nodata
+}
+
+std::optional<RasterPicture> render_exceedance_raster(const fs::path& tif) {
+  if (!fs::is_regular_file(tif)) return std::nullopt;
+  terrain::Grid g;
+  try {
+    g = terrain::load_dem(tif.string());
+  } catch (const terrain::TerrainError& e) {
+    throw std::runtime_error(e.what());
+  }
+  RasterPicture p;
+  p.scale = probability_colour_scale(terrain::band_description(tif.string()));
+  p.width = g.nx;
+  p.height = g.ny;
+  p.png = png_rgba(g.nx, g.ny, colour_cells(g, p.scale));
+  return p;
+}
+
 fs::path run_hillshade(const fs::path& out_dir) { return out_dir / "rasters" / "hillshade.png"; }
 
 }  // namespace runout

@@ -690,6 +690,81 @@ pre{font-size:11px;background:#f7f7f9;padding:8px;overflow:auto;max-height:360px
 a{color:inherit;text-decoration:none}*{-webkit-print-color-adjust:exact;print-color-adjust:exact}}
 )";
 
+// ---- ensemble ----------------------------------------------------------------------------------------------
+
+// Each layout's share of first places and its decision metrics' median with the p10-p90 band.
+std::string ensemble_table(const EnsembleSummary& e) {
+  const DecisionMetrics d(e.metrics);
+  std::ostringstream s;
+  s << "<table class=\"ensemble\"><thead><tr><th>layout</th><th>first in</th>";
+  for (const auto& m : e.metrics) s << "<th>" << html_escape(d.label(m)) << "</th>";
+  s << "</tr></thead><tbody>";
+  for (const auto& l : e.layouts) {
+    s << "<tr><th>" << html_escape(l) << "</th><td>" << fmt(100.0 * e.first_share.at(l), "%.0f") << " %</td>";
+    for (const auto& m : e.metrics) {
+      const auto q = e.quantiles.find(l);
+      if (q == e.quantiles.end() || !q->second.count(m)) {
+        s << "<td>-</td>";
+        continue;
+      }
+      const MetricQuantiles& v = q->second.at(m);
+      s << "<td>";
+      if (v.count) s << "<b>" << fmt(v.p50) << "</b> (" << fmt(v.p10) << "–" << fmt(v.p90) << ")";
+      if (v.never) s << (v.count ? "<br>" : "") << "never in " << v.never;
+      s << "</td>";
+    }
+    s << "</tr>";
+  }
+  return s.str() + "</tbody></table>";
+}
+
+// The exceedance maps of one layout that the report shows: the intensity classes and the pressures (the depth
+// and h v maps are in the folder too).
+std::string exceedance_figures(const std::string& layout, const fs::path& dir) {
+  std::ostringstream s;
+  if (!fs::is_directory(dir)) return "";
+  std::vector<fs::path> files;
+  for (const auto& f : fs::directory_iterator(dir)) {
+    const std::string n = f.path().filename().string();
+    if (f.path().extension() == ".tif" && (n.rfind("p_intensity_", 0) == 0 || n.rfind("p_max_pressure_", 0) == 0))
+      files.push_back(f.path());
+  }
+  std::sort(files.begin(), files.end(), [](const fs::path& a, const fs::path& b) {
+    return natural_less(a.filename().string(), b.filename().string());
+  });
+  for (const auto& f : files) {
+    const auto p = render_exceedance_raster(f);
+    if (!p) continue;
+    const std::string id = html_escape(layout + "-" + f.stem().string());
+    s << "<figure class=\"map hazard\" data-raster=\"" << html_escape(f.stem().string()) << "\"><div class=\"mapbox\">"
+      << "<img alt=\"" << html_escape(p->scale.title) << " (" << html_escape(layout) << ")\" src=\"data:image/png;base64,"
+      << base64_encode(p->png) << "\"></div><figcaption>" << scale_legend(p->scale, id) << "<br>" << html_escape(layout)
+      << ": exceedance/" << html_escape(f.filename().string()) << "</figcaption></figure>";
+  }
+  return s.str();
+}
+
+std::string ensemble_section(const StudyReportInput& in) {
+  if (!in.ensemble) return "";
+  const EnsembleSummary& e = *in.ensemble;
+  const DecisionMetrics d(e.metrics);
+  std::ostringstream s;
+  s << "<section id=\"ensemble\"><h2>Ensemble: " << e.members << " members</h2><p class=\"key\">Each layout over "
+    << "the members with every layout completed" << (e.incomplete ? " (" + std::to_string(e.incomplete) + " more left out)" : "")
+    << ": the share of members in which it ranks first";
+  if (!e.ranking_metric.empty()) s << " (lowest " << html_escape(d.label(e.ranking_metric)) << ", ties as printed shared)";
+  s << ", and each decision metric's median with its p10–p90 band in brackets. The sections below show member "
+    << in.member << "'s runs.</p>" << ensemble_table(e) << "<h3>Exceedance maps</h3><p class=\"key\">The share of "
+    << "members whose raster reaches each threshold (output.intensity's classes; the ensemble's pressure "
+       "thresholds), cell by cell; transparent where no member reaches it.</p><div class=\"layouts\">";
+  for (const auto& l : e.layouts) {
+    const auto it = in.exceedance_dirs.find(l);
+    const std::string figs = it == in.exceedance_dirs.end() ? "" : exceedance_figures(l, it->second);
+    if (!figs.empty()) s << "<div class=\"layout\"><h3>" << html_escape(l) << "</h3>" << figs << "</div>";
+  }
+  return s.str() + "</div></section>";
+}
+
 std::string utc_now() {
   char b[32];
   const std::time_t t = std::time(nullptr);
@@ -729,9 +804,11 @@ std::string study_report_html(const RunStore& store, const StudyReportInput& inp
     << ", baseline " << html_escape(base->run.label) << ", fidelity " << html_escape(base->row.fidelity) << " (dp "
     << fmt(dp, "%g") << " m), outlet " << html_escape(d.outlet().empty() ? std::string("none") : d.outlet())
     << ". Written " << utc_now() << " by runout " << RUNOUT_VERSION
-    << ".</p><nav><a href=\"#ranking-section\">Ranking</a><a href=\"#hydrographs\">Hydrographs</a><a href=\"#loads\">Loads</a>"
+    << ".</p><nav>" << (input.ensemble ? "<a href=\"#ensemble\">Ensemble</a>" : "")
+    << "<a href=\"#ranking-section\">Ranking</a><a href=\"#hydrographs\">Hydrographs</a><a href=\"#loads\">Loads</a>"
        "<a href=\"#layouts\">Layouts and maps</a><a href=\"#fidelity\">Fidelity and convergence</a><a "
        "href=\"#manifests\">Manifests</a></nav></header>";
+  s << ensemble_section(input);
   s << "<section id=\"ranking-section\"><h2>Ranking of the layouts by the decision metrics</h2>" << ranking_table(layouts, d)
     << "</section>";
   const std::string hydro = monitor_charts(store, layouts, "section_", "discharge_m3_s", "discharge", "m³/s");
@@ -756,11 +833,40 @@ std::string study_report_html(const RunStore& store, const StudyReportInput& inp
   return s.str();
 }
 
-StudyReportInput sweep_report_input(const RunStore& store, const std::string& sweep, const std::string& baseline,
-                                    const fs::path& runs_root) {
+namespace {
+
+// The completed runs of the sweep (variant -> latest id) and, for an ensemble, those of one member relabelled by
+// layout (the member chosen into `member`).
+std::map<std::string, int64_t> report_variants(const RunStore& store, const std::string& sweep,
+                                               const std::optional<EnsembleSummary>& ensemble, int& member) {
   std::map<std::string, int64_t> latest;
   for (const auto& r : store.list_runs(sweep))
     if (r.status == "completed") latest[r.variant] = r.id;  // by id: the last is the latest
+  if (!ensemble) return latest;
+  std::map<int, std::map<std::string, int64_t>> members;
+  for (const auto& [v, id] : latest)
+    if (const auto m = split_member_name(v)) members[m->member][m->layout] = id;
+  if (member < 0)
+    for (const auto& [m, layouts] : members)
+      if (layouts.size() == ensemble->layouts.size()) {
+        member = m;
+        break;
+      }
+  if (member < 0 && !members.empty()) member = members.begin()->first;
+  if (!members.count(member))
+    throw std::invalid_argument("--member: member " + std::to_string(member) + " of sweep '" + sweep +
+                                "' has no completed run");
+  return members.at(member);
+}
+
+}  // namespace
+
+StudyReportInput sweep_report_input(const RunStore& store, const std::string& sweep, const std::string& baseline,
+                                    const fs::path& runs_root, int member) {
+  const std::optional<EnsembleSummary> ensemble = summarise_ensemble(store, sweep);
+  if (!ensemble && member >= 0)
+    throw std::invalid_argument("--member: sweep '" + sweep + "' is not an ensemble");
+  const std::map<std::string, int64_t> latest = report_variants(store, sweep, ensemble, member);
   if (latest.empty())
     throw std::invalid_argument("--sweep: no completed run of sweep '" + sweep + "' in " + store.path().string());
   std::vector<std::string> variants;
@@ -770,17 +876,21 @@ StudyReportInput sweep_report_input(const RunStore& store, const std::string& sw
   if (!latest.count(base)) {
     std::string list;
     for (const auto& v : variants) list += (list.empty() ? "" : ", ") + v;
-    throw std::invalid_argument("--baseline: '" + base + "' is not a completed variant of sweep '" + sweep +
-                                "' (accepted: " + list + ")");
+    throw std::invalid_argument("--baseline: '" + base + "' is not a completed " + (ensemble ? "layout" : "variant") +
+                                " of sweep '" + sweep + "' (accepted: " + list + ")");
   }
-  StudyReportInput in{sweep, {}, latest.at(base)};
-  for (const auto& v : variants) in.runs.push_back({latest.at(v), v, runs_root / sweep / v, {}});
+  StudyReportInput in{sweep, {}, latest.at(base), ensemble, ensemble ? member : -1, {}};
+  for (const auto& v : variants) {
+    const std::string folder = ensemble ? store.get_run(latest.at(v))->variant : v;
+    in.runs.push_back({latest.at(v), v, runs_root / sweep / folder, {}});
+    if (ensemble) in.exceedance_dirs[v] = runs_root / sweep / v / "exceedance";
+  }
   return in;
 }
 
 void write_study_report(const RunStore& store, const std::string& sweep, const std::string& baseline,
-                        const fs::path& runs_root, const fs::path& out_path) {
-  const StudyReportInput input = sweep_report_input(store, sweep, baseline, runs_root);
+                        const fs::path& runs_root, const fs::path& out_path, int member) {
+  const StudyReportInput input = sweep_report_input(store, sweep, baseline, runs_root, member);
   // A mistyped --runs would otherwise give a page of "No map" and exit 0.
   if (!fs::is_directory(runs_root / sweep))
     throw std::invalid_argument("--runs: no folder " + (runs_root / sweep).string() + " (runout sweep --out RUNS writes "

@@ -1,4 +1,6 @@
 #include "runout/scenarios/study.hpp"
+
+#include "runout/scenarios/ensemble_summary.hpp"
 #include "runout/scenarios/thread_share.hpp"
 
 #include <omp.h>
@@ -137,8 +139,10 @@ SweepResult run_sweep(RunStore& store, const Sweep& sweep, const SweepOptions& o
   for (int j = 1; j < jobs; ++j) pool.emplace_back(worker);
   worker();
   for (auto& t : pool) t.join();
-  if (!(options.stop && options.stop->load()))
+  if (!(options.stop && options.stop->load())) {
     result.differences = write_sweep_differences(options.out_root / sweep.name, sweep);
+    result.exceedance = write_ensemble_outputs(store, options.out_root / sweep.name, sweep);
+  }
   return result;
 }
 

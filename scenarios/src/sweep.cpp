@@ -230,7 +230,10 @@ Sweep parse_sweep(const std::string& json_text, const std::filesystem::path& bas
     }
   }
   for (auto& v : sw.variants) v.layout = v.name;
-  if (j.contains("ensemble")) sw.variants = expand_ensemble(sw, parse_ensemble(j["ensemble"].dump(), sw.base_json));
+  if (j.contains("ensemble")) {
+    sw.ensemble = parse_ensemble(j["ensemble"].dump(), sw.base_json);
+    sw.variants = expand_ensemble(sw, *sw.ensemble);
+  }
   return sw;
 }
 

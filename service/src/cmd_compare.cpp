@@ -11,6 +11,7 @@
 
 #include "commands.hpp"
 #include "runout/scenarios/decision_metrics.hpp"
+#include "runout/scenarios/ensemble_summary.hpp"
 #include "runout/scenarios/store.hpp"
 #include "runout/scenarios/study.hpp"
 
@@ -152,11 +153,16 @@ bool sweep_runs(const RunStore& store, const CompareArgs& a, int64_t& base, std:
   std::map<std::string, int64_t> latest;
   for (const auto& r : store.list_runs(a.sweep)) {
     if (r.status != "completed") continue;
+    if (a.member >= 0) {  // one member of an ensemble: its layouts
+      const auto m = split_member_name(r.variant);
+      if (!m || m->member != a.member) continue;
+    }
     if (!latest.count(r.variant)) order.push_back(r.variant);
     latest[r.variant] = r.id;
   }
   if (order.empty()) {
-    spdlog::error("compare: no completed runs of sweep '{}' in {}", a.sweep, a.db);
+    if (a.member >= 0) spdlog::error("compare: no completed runs of member {} of sweep '{}' in {}", a.member, a.sweep, a.db);
+    else spdlog::error("compare: no completed runs of sweep '{}' in {}", a.sweep, a.db);
     return false;
   }
   std::sort(order.begin(), order.end());
@@ -169,6 +175,55 @@ bool sweep_runs(const RunStore& store, const CompareArgs& a, int64_t& base, std:
   for (const auto& v : order)
     if (v != base_name) runs.push_back(latest[v]);
   return true;
+}
+
+std::string percent(double share) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "%.0f %%", 100.0 * share);
+  return buf;
+}
+
+// An ensemble's decision metrics as quantiles over its members, each layout's share of first places first.
+void print_ensemble_table(const EnsembleSummary& s, const CompareArgs& a) {
+  const DecisionMetrics d(s.metrics);
+  std::printf("Ensemble %s: %zu members", s.sweep.c_str(), s.members);
+  if (s.incomplete) std::printf(" (%zu more left out: not every layout completed)", s.incomplete);
+  std::printf("\n");
+  if (!s.ranking_metric.empty()) {
+    std::printf("First (lowest %s) in", d.label(s.ranking_metric).c_str());
+    for (const auto& l : s.layouts) std::printf(" %s %s%s", l.c_str(), percent(s.first_share.at(l)).c_str(), l == s.layouts.back() ? "" : ",");
+    std::printf(" of %zu members\n", s.ranked_members);
+  }
+  std::printf("\n%-34s %-10s %10s %10s %10s %6s\n", "metric", "layout", "p10", "p50", "p90", "never");
+  for (const auto& metric : s.metrics) {
+    if (!a.filter.empty() && metric.find(a.filter) == std::string::npos) continue;
+    for (const auto& l : s.layouts) {
+      const auto q = s.quantiles.find(l);
+      if (q == s.quantiles.end() || !q->second.count(metric)) continue;
+      const MetricQuantiles& m = q->second.at(metric);
+      const auto cell = [&](double v) { return m.count ? fmt_value(v) : std::string("-"); };
+      std::printf("%-34s %-10s %10s %10s %10s %6zu\n", d.label(metric).c_str(), l.c_str(), cell(m.p10).c_str(),
+                  cell(m.p50).c_str(), cell(m.p90).c_str(), m.never);
+    }
+  }
+}
+
+// metric, label, layout, p10, p50, p90, count, never, first_share (the layout's, on every row).
+void print_ensemble_csv(const EnsembleSummary& s, const CompareArgs& a) {
+  const DecisionMetrics d(s.metrics);
+  std::printf("metric,label,layout,p10,p50,p90,count,never,first_share\n");
+  for (const auto& metric : s.metrics) {
+    if (!a.filter.empty() && metric.find(a.filter) == std::string::npos) continue;
+    for (const auto& l : s.layouts) {
+      const auto q = s.quantiles.find(l);
+      if (q == s.quantiles.end() || !q->second.count(metric)) continue;
+      const MetricQuantiles& m = q->second.at(metric);
+      const auto num = [&](double v) { return m.count ? json(v).dump() : std::string(); };
+      std::printf("%s,%s,%s,%s,%s,%s,%zu,%zu,%s\n", csv_field(metric).c_str(), csv_field(d.label(metric)).c_str(),
+                  csv_field(l).c_str(), num(m.p10).c_str(), num(m.p50).c_str(), num(m.p90).c_str(), m.count, m.never,
+                  json(s.first_share.at(l)).dump().c_str());
+    }
+  }
 }
 
 }  // namespace
@@ -187,6 +242,13 @@ int compare(const CompareArgs& a) {
         spdlog::error("compare: name a --sweep or give --runs");
         return 2;
       }
+      if (a.member < 0)
+        if (const auto ensemble = summarise_ensemble(store, a.sweep)) {
+          if (a.format == "csv") print_ensemble_csv(*ensemble, a);
+          else if (a.format == "json") std::printf("%s\n", ensemble_summary_json(*ensemble).c_str());
+          else print_ensemble_table(*ensemble, a);
+          return 0;
+        }
       if (!sweep_runs(store, a, base, runs)) return 2;
     } else {
       base = runs.front();
@@ -223,6 +285,10 @@ Action add_compare(CLI::App& app) {
   cmd->add_option("--sweep", a->sweep, "Compare the latest completed run of each variant of this sweep");
   cmd->add_option("--baseline", a->baseline, "Baseline variant (default: the first by name, C0 / G0) or run id");
   cmd->add_option("--runs", a->ids, "Run ids instead of a sweep (the first is the baseline)");
+  cmd->add_option("--member", a->member,
+                  "An ensemble sweep: compare the layouts of this member (default: every layout's quantiles over the "
+                  "members and how often it ranks first)")
+      ->check(CLI::Range(0, 1 << 20));
   cmd->add_option("--format", a->format, "table | csv | json")
       ->check(CLI::IsMember({"table", "csv", "json"}))
       ->capture_default_str();

@@ -10,6 +10,7 @@ namespace {
 
 struct ReportArgs {
   std::string sweep, baseline, db = "runout.db", runs = "runs", out = "report.html";
+  int member = -1;
 };
 
 int report(const ReportArgs& a) {
@@ -19,7 +20,7 @@ int report(const ReportArgs& a) {
   }
   try {
     RunStore store(a.db);
-    write_study_report(store, a.sweep, a.baseline, a.runs, a.out);
+    write_study_report(store, a.sweep, a.baseline, a.runs, a.out, a.member);
   } catch (const std::invalid_argument& e) {
     spdlog::error("report: {}", e.what());
     return 2;
@@ -40,6 +41,10 @@ Action add_report(CLI::App& app) {
               "  runout report --sweep flume-C0-C7 --out flume-report.html");
   cmd->add_option("--sweep", a->sweep, "The stored sweep (its latest completed run of each variant)")->required();
   cmd->add_option("--baseline", a->baseline, "Baseline variant (default: the first by name, C0 / G0)");
+  cmd->add_option("--member", a->member,
+                  "An ensemble sweep: the member whose runs the report shows in detail (default: the first with every "
+                  "layout completed)")
+      ->check(CLI::Range(0, 1 << 20));
   cmd->add_option("--db", a->db, "Run store (SQLite)")->capture_default_str();
   cmd->add_option("--runs", a->runs, "Where runout sweep --out wrote the runs (their maps: RUNS/<sweep>/<variant>)")
       ->capture_default_str();

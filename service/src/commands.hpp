@@ -61,6 +61,7 @@ struct CompareArgs {
   std::string db = "runout.db", sweep, baseline, filter, format = "table";
   std::vector<int64_t> ids;
   bool all = false, differing = false;
+  int member = -1;  // an ensemble sweep: compare this member's layouts; -1: the ensemble's quantiles
 };
 int compare(const CompareArgs& a);
 

@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "runout/scenarios/ensemble_summary.hpp"
 #include "runout/scenarios/sweep.hpp"
 #include "sweep_cost.hpp"
 
@@ -377,7 +378,10 @@ class Coordinator {
     shutdown_workers();
     // The workers wrote their rasters under the same output root (a shared file system, as for the store's
     // outputs): the differences against the baseline are rank 0's, as a single-process sweep's are.
-    if (!stopping_) result_.differences = write_sweep_differences(options_.out_root / sweep_.name, sweep_);
+    if (!stopping_) {
+      result_.differences = write_sweep_differences(options_.out_root / sweep_.name, sweep_);
+      result_.exceedance = write_ensemble_outputs(store_, options_.out_root / sweep_.name, sweep_);
+    }
     return result_;
   }
 

@@ -129,7 +129,8 @@ void Server::Impl::routes_sweeps() {
         const int64_t id = std::stoll(m[1].str());
         const auto row = queue->get_sweep(id);
         if (!row) throw ApiError(404, "id", "no sweep with id " + m[1].str());
-        StudyReportInput in{row->name, {}, 0};
+        StudyReportInput in;
+        in.title = row->name;
         std::string variants;
         const std::string baseline = req.has_param("baseline") ? req.get_param_value("baseline") : std::string();
         for (const auto& j : queue->list(std::nullopt, id, 100000, 0)) {

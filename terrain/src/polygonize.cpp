@@ -120,11 +120,8 @@ void add_layer(GDALDataset& out, const ClassLayer& spec, const std::string& path
 // The QGIS convention for styles kept in a GeoPackage (what QGIS writes with "Save as Default" into the
 // file): a table layer_styles, one row per layer with its QML and useAsDefault = 1, which QGIS applies when the
 // layer is loaded. Created through OGR so that it is registered in gpkg_contents as an attributes table.
-void add_layer_styles(GDALDataset& out, const std::vector<ClassLayer>& layers, const std::string& path) {
-  std::vector<const ClassLayer*> styled;
-  for (const auto& l : layers)
-    if (!l.colours.empty()) styled.push_back(&l);
-  if (styled.empty()) return;
+OGRLayer* style_table(GDALDataset& out, const std::string& path) {
+  if (OGRLayer* t = out.GetLayerByName("layer_styles")) return t;
   OGRLayer* t = out.CreateLayer("layer_styles", nullptr, wkbNone, nullptr);
   if (!t) fail(path, "cannot create the layer_styles table");
   const std::pair<const char*, OGRFieldType> fields[] = {
@@ -137,36 +134,48 @@ void add_layer_styles(GDALDataset& out, const std::vector<ClassLayer>& layers, c
     if (std::string(name) == "useAsDefault") f.SetSubType(OFSTBoolean);
     if (t->CreateField(&f) != OGRERR_NONE) fail(path, std::string("cannot add field layer_styles.") + name);
   }
-  for (const ClassLayer* l : styled) {
-    if (l->colours.size() != l->labels.size())
-      throw std::invalid_argument("write_class_polygons: layer '" + l->name + "' has " + std::to_string(l->colours.size()) +
-                                  " colours for " + std::to_string(l->labels.size()) + " classes");
+  return t;
+}
+
+// One row of layer_styles: the layer's QML, its default.
+void add_style(GDALDataset& out, const std::string& layer, const std::string& qml, const std::string& description,
+               const std::string& path) {
+  OGRLayer* t = style_table(out, path);
+  OGRFeature f(t->GetLayerDefn());
+  f.SetField("f_table_catalog", "");
+  f.SetField("f_table_schema", "");
+  f.SetField("f_table_name", layer.c_str());
+  f.SetField("f_geometry_column", out.GetLayerByName(layer.c_str())->GetGeometryColumn());
+  f.SetField("styleName", layer.c_str());
+  f.SetField("styleQML", qml.c_str());
+  f.SetField("styleSLD", "");
+  f.SetField("useAsDefault", 1);
+  f.SetField("description", ("runout: " + description).c_str());
+  f.SetField("owner", "");
+  f.SetField("ui", "");
+  if (t->CreateFeature(&f) != OGRERR_NONE) fail(path, "cannot store the style of layer '" + layer + "'");
+}
+
+void add_layer_styles(GDALDataset& out, const std::vector<ClassLayer>& layers, const std::string& path) {
+  for (const auto& l : layers) {
+    if (l.colours.empty()) continue;
+    if (l.colours.size() != l.labels.size())
+      throw std::invalid_argument("write_class_polygons: layer '" + l.name + "' has " + std::to_string(l.colours.size()) +
+                                  " colours for " + std::to_string(l.labels.size()) + " classes");
     std::vector<StyleStop> categories;
-    for (size_t k = 0; k < l->labels.size(); ++k) categories.push_back({static_cast<double>(k + 1), l->colours[k], l->labels[k]});
-    OGRFeature f(t->GetLayerDefn());
-    f.SetField("f_table_catalog", "");
-    f.SetField("f_table_schema", "");
-    f.SetField("f_table_name", l->name.c_str());
-    f.SetField("f_geometry_column", out.GetLayerByName(l->name.c_str())->GetGeometryColumn());
-    f.SetField("styleName", l->name.c_str());
-    f.SetField("styleQML", vector_class_qml("class", categories).c_str());
-    f.SetField("styleSLD", "");
-    f.SetField("useAsDefault", 1);
-    f.SetField("description", ("runout: " + l->name + " coloured by class").c_str());
-    f.SetField("owner", "");
-    f.SetField("ui", "");
-    if (t->CreateFeature(&f) != OGRERR_NONE) fail(path, "cannot store the style of layer '" + l->name + "'");
+    for (size_t k = 0; k < l.labels.size(); ++k) categories.push_back({static_cast<double>(k + 1), l.colours[k], l.labels[k]});
+    add_style(out, l.name, vector_class_qml("class", categories), l.name + " coloured by class", path);
   }
 }
 
-// One layer of structures (lines or polygons) with their fields; nothing when none is of this shape.
-void add_structure_layer(GDALDataset& out, const std::string& name, bool areas, const std::vector<StructureInfo>& all,
+// One layer of structures (lines or polygons) with their fields; nothing (false) when none is of this shape.
+bool add_structure_layer(GDALDataset& out, const std::string& name, bool areas, const std::vector<StructureInfo>& all,
                          const std::string& crs_wkt, const std::vector<double>& retained,
                          const std::vector<double>& upstream, const std::string& path) {
   std::vector<size_t> which;
   for (size_t k = 0; k < all.size(); ++k)
     if ((all[k].kind != StructureKind::check_dam) == areas && all[k].outline.size() >= (areas ? 3u : 2u)) which.push_back(k);
-  if (which.empty()) return;
+  if (which.empty()) return false;
   OGRSpatialReference srs = layer_crs(crs_wkt);
   OGRLayer* layer = out.CreateLayer(name.c_str(), crs_wkt.empty() ? nullptr : &srs, areas ? wkbPolygon : wkbLineString, nullptr);
   if (!layer) fail(path, "cannot create layer '" + name + "'");
@@ -212,6 +221,7 @@ void add_structure_layer(GDALDataset& out, const std::string& name, bool areas, 
     if (layer->CreateFeature(&f) != OGRERR_NONE) fail(path, "cannot write structure '" + st.name + "'");
   }
   out.CommitTransaction();
+  return true;
 }
 
 }  // namespace
@@ -228,8 +238,11 @@ void write_structure_layers(const std::string& gpkg_path, const std::vector<Stru
   } pop;
   DatasetPtr out(GDALDataset::Open(gpkg_path.c_str(), GDAL_OF_VECTOR | GDAL_OF_UPDATE));
   if (!out) fail(gpkg_path, "cannot open the GeoPackage to add the structures");
-  add_structure_layer(*out, "check_dams", false, structures, crs_wkt, retained, upstream, gpkg_path);
-  add_structure_layer(*out, "structure_areas", true, structures, crs_wkt, retained, upstream, gpkg_path);
+  for (const bool areas : {false, true}) {
+    const std::string name = areas ? "structure_areas" : "check_dams";
+    if (add_structure_layer(*out, name, areas, structures, crs_wkt, retained, upstream, gpkg_path))
+      add_style(*out, name, structure_layer_qml(areas), name + " as built, labelled by name", gpkg_path);
+  }
 }
 
 void write_class_polygons(const std::string& path, const std::vector<ClassLayer>& layers) {

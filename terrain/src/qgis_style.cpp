@@ -31,13 +31,13 @@ std::string number(double v) {
   return buf;
 }
 
-// "#rrggbb" as QGIS writes a colour ("r,g,b,a").
-std::string qgis_colour(const std::string& hex, double shade = 1.0) {
+// "#rrggbb" as QGIS writes a colour ("r,g,b,a"), darkened by `shade`, with opacity `alpha` (0-255).
+std::string qgis_colour(const std::string& hex, double shade = 1.0, int alpha = 255) {
   if (hex.size() != 7 || hex[0] != '#') throw std::invalid_argument("colour '" + hex + "' is not #rrggbb");
   std::string out;
   for (int k = 0; k < 3; ++k)
     out += std::to_string(static_cast<int>(std::stoi(hex.substr(1 + 2 * k, 2), nullptr, 16) * shade)) + ",";
-  return out + "255";
+  return out + std::to_string(alpha);
 }
 
 }  // namespace
@@ -64,6 +64,60 @@ std::string vector_class_qml(const std::string& field, const std::vector<StyleSt
       << "            <Option type=\"QString\" name=\"style\" value=\"solid\"/>\n          </Option>\n"
       << "        </layer>\n      </symbol>\n";
   q << "    </symbols>\n  </renderer-v2>\n  <blendMode>0</blendMode>\n  <featureBlendMode>0</featureBlendMode>\n"
+    << "  <layerOpacity>1</layerOpacity>\n</qgis>\n";
+  return q.str();
+}
+
+namespace {
+
+// Each feature's `name` written beside it (QGIS simple labelling), for the built structures.
+std::string name_labels(bool on_line) {
+  std::ostringstream q;
+  q << "  <labeling type=\"simple\">\n    <settings calloutType=\"simple\">\n"
+    << "      <text-style fieldName=\"name\" isExpression=\"0\" fontSize=\"9\" fontSizeUnit=\"Point\" "
+    << "textColor=\"20,20,20,255\" fontWeight=\"75\">\n"
+    << "        <text-buffer bufferDraw=\"1\" bufferSize=\"1\" bufferSizeUnits=\"MM\" bufferColor=\"255,255,255,255\"/>\n"
+    << "      </text-style>\n      <placement placement=\"" << (on_line ? 2 : 1) << "\" dist=\"1\" distUnits=\"MM\"/>\n"
+    << "    </settings>\n  </labeling>\n";
+  return q.str();
+}
+
+}  // namespace
+
+std::string structure_layer_qml(bool areas) {
+  std::ostringstream q;
+  q << "<!DOCTYPE qgis PUBLIC 'http://mrcc.com/qgis.dtd' 'SYSTEM'>\n"
+    << "<qgis version=\"3.28.0\" styleCategories=\"Symbology|Labeling\" labelsEnabled=\"1\">\n";
+  if (!areas) {  // a check dam's crest line: thick, dark, above every fill
+    q << "  <renderer-v2 type=\"singleSymbol\" symbollevels=\"0\" enableorderby=\"0\" forceraster=\"0\">\n"
+      << "    <symbols>\n      <symbol type=\"line\" name=\"0\" alpha=\"1\" clip_to_extent=\"1\" force_rhr=\"0\">\n"
+      << "        <layer class=\"SimpleLine\" enabled=\"1\" pass=\"0\" locked=\"0\">\n          <Option type=\"Map\">\n"
+      << "            <Option type=\"QString\" name=\"line_color\" value=\"" << qgis_colour("#3b3b3b") << "\"/>\n"
+      << "            <Option type=\"QString\" name=\"line_width\" value=\"1.2\"/>\n"
+      << "            <Option type=\"QString\" name=\"line_width_unit\" value=\"MM\"/>\n"
+      << "            <Option type=\"QString\" name=\"capstyle\" value=\"flat\"/>\n          </Option>\n"
+      << "        </layer>\n      </symbol>\n    </symbols>\n  </renderer-v2>\n";
+  } else {  // deposition areas and retention basins: outlined, lightly filled so the hazard under them shows
+    const std::pair<const char*, const char*> kinds[] = {{"deposition_area", "#8c6d31"}, {"retention_basin", "#31688c"}};
+    q << "  <renderer-v2 type=\"categorizedSymbol\" attr=\"type\" symbollevels=\"0\" enableorderby=\"0\" "
+      << "forceraster=\"0\">\n    <categories>\n";
+    for (size_t k = 0; k < 2; ++k)
+      q << "      <category value=\"" << kinds[k].first << "\" symbol=\"" << k << "\" label=\""
+        << (k == 0 ? "deposition area" : "retention basin") << "\" render=\"true\"/>\n";
+    q << "    </categories>\n    <symbols>\n";
+    for (size_t k = 0; k < 2; ++k)
+      q << "      <symbol type=\"fill\" name=\"" << k << "\" alpha=\"1\" clip_to_extent=\"1\" force_rhr=\"0\">\n"
+        << "        <layer class=\"SimpleFill\" enabled=\"1\" pass=\"0\" locked=\"0\">\n          <Option type=\"Map\">\n"
+        << "            <Option type=\"QString\" name=\"color\" value=\"" << qgis_colour(kinds[k].second, 1.0, 64) << "\"/>\n"
+        << "            <Option type=\"QString\" name=\"outline_color\" value=\"" << qgis_colour(kinds[k].second) << "\"/>\n"
+        << "            <Option type=\"QString\" name=\"outline_style\" value=\"solid\"/>\n"
+        << "            <Option type=\"QString\" name=\"outline_width\" value=\"0.6\"/>\n"
+        << "            <Option type=\"QString\" name=\"outline_width_unit\" value=\"MM\"/>\n"
+        << "            <Option type=\"QString\" name=\"style\" value=\"solid\"/>\n          </Option>\n"
+        << "        </layer>\n      </symbol>\n";
+    q << "    </symbols>\n  </renderer-v2>\n";
+  }
+  q << name_labels(!areas) << "  <blendMode>0</blendMode>\n  <featureBlendMode>0</featureBlendMode>\n"
     << "  <layerOpacity>1</layerOpacity>\n</qgis>\n";
   return q.str();
 }

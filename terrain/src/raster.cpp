@@ -406,6 +406,17 @@ Grid load_dem(const std::string& path, const DemOptions& options) {
   return require_data(warp_band1(src.get(), target ? *target : *src_srs, options.resolution, path), path);
 }
 
+std::string band_description(const std::string& path) {
+  ensure_gdal();
+  QuietErrors quiet;
+  Dataset src(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr,
+                         nullptr, nullptr));
+  if (!src) dem_error("cannot open '" + path + "' as a raster: " + last_gdal_error());
+  if (GDALGetRasterCount(src.get()) < 1) return "";
+  const char* d = GDALGetDescription(GDALGetRasterBand(src.get(), 1));
+  return d ? d : "";
+}
+
 std::string working_crs_wkt(const std::string& path, const DemOptions& options) {
   ensure_gdal();
   QuietErrors quiet;

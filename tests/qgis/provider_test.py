@@ -147,6 +147,8 @@ def check_hazard(out):
         areas = [r[0] for r in db.execute("SELECT name FROM structure_areas")] if "structure_areas" in layers else []
         polygons = db.execute("SELECT COUNT(*) FROM inundated").fetchone()[0] if "inundated" in layers else 0
     check({"inundated", "intensity"} <= styled, f"hazard.gpkg's inundated and intensity have default styles ({sorted(styled)})")
+    built = {"check_dams", "structure_areas"} & layers
+    check(built <= styled, f"hazard.gpkg's built structures {sorted(built)} have default styles ({sorted(styled)})")
     check(polygons > 0, f"hazard.gpkg's inundated layer has polygons ({polygons})")
     check(dams == ["CD_P2"] and areas == ["FD_P1"], f"hazard.gpkg has the structures as built ({dams}, {areas})")
 

@@ -224,6 +224,21 @@ TEST(HazardOutputs, TheBuiltStructuresAreLayersOfTheGeoPackage) {
   OGRSpatialReference want;
   want.importFromEPSG(32632);
   EXPECT_TRUE(dams->GetSpatialRef() && dams->GetSpatialRef()->IsSame(&want));
+  // Each layer has its default QGIS style in layer_styles (it was drawn in QGIS's single default colour): the
+  // crest a line symbol, the areas by type, both labelled by name.
+  OGRLayer* styles = gpkg->GetLayerByName("layer_styles");
+  ASSERT_TRUE(styles);
+  std::map<std::string, std::string> qml;
+  for (auto& f : *styles)
+    if (f->GetFieldAsInteger("useAsDefault") == 1) qml[f->GetFieldAsString("f_table_name")] = f->GetFieldAsString("styleQML");
+  ASSERT_TRUE(qml.count("check_dams") && qml.count("structure_areas"));
+  EXPECT_NE(qml["check_dams"].find("<symbol type=\"line\""), std::string::npos);
+  EXPECT_NE(qml["structure_areas"].find("attr=\"type\""), std::string::npos);
+  EXPECT_NE(qml["structure_areas"].find("<category value=\"retention_basin\""), std::string::npos);
+  for (const auto& [layer, text] : qml)
+    if (layer == "check_dams" || layer == "structure_areas")
+      EXPECT_NE(text.find("fieldName=\"name\""), std::string::npos) << layer;
+  EXPECT_TRUE(qml.count("intensity"));  // the class layers' styles are still there
 }
 
 TEST(HazardOutputs, IntensityThresholdsAreReadAndRefusedOutOfRange) {

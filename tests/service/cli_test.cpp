@@ -364,6 +364,48 @@ TEST_F(Cli, RunAtAFidelityTakesTheScenesDefaultLadder) {
   EXPECT_NE(output().find("stored as run 2 "), std::string::npos) << output();
 }
 
+// An ensemble sweep (runs LAYOUT-eNNN): compare prints each layout's quantiles over the members and its share of
+// first places; --member compares one member's layouts as a plain sweep.
+TEST_F(Cli, CompareSummarisesAnEnsembleAndComparesOneMember) {
+  const fs::path db = dir_ / "runs.db";
+  {
+    RunStore store(db);
+    const double q[3][2] = {{1.0, 2.0}, {3.0, 2.0}, {1.5, 4.0}};  // C0 first in members 0 and 2, C1 in 1
+    for (int m = 0; m < 3; ++m)
+      for (int l = 0; l < 2; ++l) {
+        RunStore::RunRecord r;
+        r.variant = "C" + std::to_string(l) + "-e00" + std::to_string(m);
+        r.manifest_hash = "ens-" + r.variant;
+        r.sweep = "ens";
+        r.status = "completed";
+        r.metrics_json =
+            json{{"monitors", {{{"type", "section"}, {"name", "Outlet"}, {"peak_discharge_m3_s", q[m][l]}}}}}.dump();
+        store.put_run(r);
+      }
+  }
+  ASSERT_EQ(run_split("compare --sweep ens --db " + q(db)), 0) << output();
+  const std::string table = standard_output();
+  EXPECT_NE(table.find("3 members"), std::string::npos) << table;
+  EXPECT_NE(table.find("C0 67 %, C1 33 %"), std::string::npos) << table;
+  ASSERT_EQ(run_split("compare --sweep ens --format csv --db " + q(db)), 0) << output();
+  std::istringstream csv(standard_output());
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "metric,label,layout,p10,p50,p90,count,never,first_share");
+  std::getline(csv, line);  // C0's Q_m over {1, 3, 1.5}: p10 1.1, p50 1.5, p90 2.7 (type 7)
+  const auto f = csv_fields(line);
+  ASSERT_EQ(f.size(), 9u) << line;
+  EXPECT_EQ(f[2], "C0");
+  EXPECT_NEAR(std::stod(f[3]), 1.1, 1e-12);
+  EXPECT_NEAR(std::stod(f[4]), 1.5, 1e-12);
+  EXPECT_NEAR(std::stod(f[5]), 2.7, 1e-12);
+  ASSERT_EQ(run_split("compare --sweep ens --member 1 --format json --db " + q(db)), 0) << output();
+  const json j = json::parse(standard_output());
+  EXPECT_EQ(j.at("baseline"), "C0-e001");
+  EXPECT_EQ(j.at("runs"), json::parse(R"(["C1-e001"])"));
+  EXPECT_EQ(run_split("compare --sweep ens --member 7 --db " + q(db)), 2);
+}
+
 // A protected zone the flow never reached (arrival -1 in the store) reads "never" in compare's table, CSV and
 // JSON, with no per cent of it or against it (it read "-1 (-166.7%)" against an arrival at 1.5 s).
 TEST_F(Cli, CompareShowsNeverForAnArrivalThatNeverHappened) {

@@ -65,6 +65,13 @@ ColourScale difference_colour_scale(const std::string& name, const std::string& 
 // the run has none (a baseline, a service run, a single run).
 std::optional<RasterPicture> render_difference_raster(const std::filesystem::path& out_dir, const std::string& name);
 
+// An ensemble's exceedance map (ensemble_summary.hpp, p_<raster>_<level>.tif): a probability from 0 to 1, pale
+// yellow to dark red; its .qml uses the same stops. `title` says what it is the probability of.
+ColourScale probability_colour_scale(const std::string& title);
+// The exceedance map in `tif` coloured by probability_colour_scale, titled by its band description; nullopt
+// when there is no such file.
+std::optional<RasterPicture> render_exceedance_raster(const std::filesystem::path& tif);
+
 // The grey hillshade of the run's terrain (OUT/rasters/hillshade.png, written with the rasters), if any.
 std::filesystem::path run_hillshade(const std::filesystem::path& out_dir);
 

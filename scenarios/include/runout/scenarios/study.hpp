@@ -77,9 +77,12 @@ struct SweepResult {
   std::vector<StoredRun> runs;  // one per variant, in the sweep's order (status "not run" if stopped first)
   // Variants given difference rasters against the baseline (write_difference_rasters).
   std::vector<std::string> differences;
+  // Layouts given exceedance maps (an ensemble sweep, write_ensemble_outputs).
+  std::vector<std::string> exceedance;
 };
 
-// Runs the sweep's layouts (resumable through the store), then writes the difference rasters.
+// Runs the sweep's layouts (resumable through the store), then writes the difference rasters and, for an
+// ensemble, its exceedance maps and summary (ensemble_summary.hpp).
 SweepResult run_sweep(RunStore& store, const Sweep& sweep, const SweepOptions& options);
 
 // Per sweep: for each variant after the first (the baseline layout: C0, G0), SWEEP_DIR/<variant>/rasters/

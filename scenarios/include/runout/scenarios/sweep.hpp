@@ -34,14 +34,6 @@ struct SweepVariant {
   int member = -1;                      // the ensemble member's index; -1: no ensemble
 };
 
-struct Sweep {
-  std::string name;
-  std::filesystem::path base_path;  // the base scene file
-  std::string base_json;            // its text
-  Fidelity fidelity;                // the sweep's default (the CLI may override)
-  std::vector<SweepVariant> variants;
-};
-
 // An ensemble (docs/scene-format.md, "Ensembles"): numbers of the base scene varied over members, each member run
 // with every layout. Listed values and ranges make a grid; distributions are sampled by a Latin hypercube of
 // `members` points from `seed`, so an ensemble repeats bit for bit; members = grid points x samples.
@@ -55,7 +47,19 @@ struct Ensemble {
   std::vector<EnsembleParameter> parameters;
   size_t samples = 1;   // Latin-hypercube points (1 without distributions)
   uint64_t seed = 1;
+  // The max pressures whose exceedance probability is mapped (ensemble_summary.hpp), [Pa], ascending.
+  std::vector<double> pressure_thresholds_pa = {3.0e3, 30.0e3};
 };
+
+struct Sweep {
+  std::string name;
+  std::filesystem::path base_path;  // the base scene file
+  std::string base_json;            // its text
+  Fidelity fidelity;                // the sweep's default (the CLI may override)
+  std::vector<SweepVariant> variants;
+  std::optional<Ensemble> ensemble;  // the sweep file's "ensemble", when it has one
+};
+
 // Parses the sweep file's "ensemble" object (throws SceneError naming the field, e.g.
 // "ensemble.parameters[1].sd"); each pointer must name a number of `base`.
 Ensemble parse_ensemble(const std::string& ensemble_json, const std::string& base_json);

@@ -81,6 +81,10 @@ struct DemOptions {
 // nodata.
 Grid load_dem(const std::string& path, const DemOptions& options = {});
 
+// Band 1's description as written (RasterInfo::description): "" when it has none. Throws TerrainError for a
+// file GDAL cannot open.
+std::string band_description(const std::string& path);
+
 // EPSG code string of the WGS 84 UTM zone holding a longitude/latitude ("EPSG:32616").
 std::string utm_crs_for(double lon_deg, double lat_deg);
 
@@ -125,6 +129,11 @@ void write_class_polygons(const std::string& path, const std::vector<ClassLayer>
 // of cells apart, else std::invalid_argument); a cell outside one grid or NaN in it counts as 0 there, and is
 // nodata (NaN) where neither grid has a value (dry in both).
 Grid difference_grid(const Grid& a, const Grid& b);
+// The share of `members` whose value reaches `threshold` (v >= threshold), cell by cell, on the union of their
+// extents (one lattice, as difference_grid): a cell outside a member or NaN in it does not reach it there; the
+// denominator is always the number of members. Nodata where no member reaches it (nothing to paint).
+// Throws std::invalid_argument for no members or grids off one lattice.
+Grid exceedance_grid(const std::vector<const Grid*>& members, double threshold);
 
 // A QGIS layer style (.qml) for a single-band raster: a colour ramp from the stops' values (continuous), or
 // one colour per class value (paletted, exact values). Colours "#rrggbb".
@@ -137,6 +146,10 @@ void write_qml(const std::string& path, const std::vector<StyleStop>& stops, boo
 // The QGIS style (QML text) of a polygon layer: a categorised fill on the integer field `field`, one category
 // per stop (its value, colour and label), at 80 % opacity with a darker outline.
 std::string vector_class_qml(const std::string& field, const std::vector<StyleStop>& categories);
+// The QGIS style of hazard.gpkg's built structures (write_structure_layers): check dams' crest lines dark and
+// thick (`areas` false); deposition areas and retention basins outlined over a light fill, one colour per `type`
+// (`areas` true); each labelled with its name.
+std::string structure_layer_qml(bool areas);
 
 // A picture for people: the hillshaded terrain in grey with `depth` (same placement as `terrain`) drawn
 // over it in a blue colour ramp from `min_depth` to the grid's maximum; cells below min_depth stay grey.
