@@ -30,6 +30,7 @@ Action add_report(CLI::App& app);
 Action add_serve(CLI::App& app);
 Action add_tradeoff(CLI::App& app);
 Action add_calibrate(CLI::App& app);
+Action add_calibrate_material(CLI::App& app);
 Action add_schema(CLI::App& app);
 
 // In the order `runout --help` lists them.
@@ -37,6 +38,7 @@ inline const Command kCommands[] = {{"run", add_run},           {"sweep", add_sw
                                     {"compare", add_compare},   {"report", add_report},
                                     {"serve", add_serve},
                                     {"tradeoff", add_tradeoff}, {"calibrate", add_calibrate},
+                                    {"calibrate-material", add_calibrate_material},
                                     {"schema", add_schema}};
 
 // Set by SIGINT/SIGTERM once stop_on_signals() ran: runs, sweeps and the server stop at their next check.
