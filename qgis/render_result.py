@@ -67,6 +67,9 @@ def styled_layers(run_dir, dem_path, zones_path, hillshade):
                               (zones_path, "zones", "#d7301f")):
         if uri and (not uri.startswith(gpkg) or name in _gpkg_layers(gpkg)):
             layer = vector(uri, name)
+            layers.append(layer)
+            if uri.startswith(gpkg) and name in _gpkg_styled(gpkg):  # runout's own style, as QGIS loads it
+                continue
             sym = layer.renderer().symbol()
             sym.setColor(QColor(colour))
             if layer.geometryType() == 2:  # polygons: outline only
@@ -75,7 +78,6 @@ def styled_layers(run_dir, dem_path, zones_path, hillshade):
                 sym.symbolLayer(0).setStrokeWidth(0.6)
             else:
                 sym.setWidth(1.0)
-            layers.append(layer)
     layers += [inundated, depth, dem]
     summary = {"max_depth": {"renderer": depth.renderer().type(), "style": "max_depth.qml"},
                "inundated": {"renderer": inundated_style, "style": "layer_styles"},
@@ -88,6 +90,16 @@ def _gpkg_layers(gpkg):
     import sqlite3
     with sqlite3.connect(f"file:{gpkg}?mode=ro", uri=True) as db:
         return {r[0] for r in db.execute("SELECT table_name FROM gpkg_contents")}
+
+
+def _gpkg_styled(gpkg):
+    """The layers with a default style in the GeoPackage's layer_styles (runouts before the structures' styles
+    wrote none for check_dams and structure_areas: this picture then styles them itself)."""
+    import sqlite3
+    with sqlite3.connect(f"file:{gpkg}?mode=ro", uri=True) as db:
+        if not db.execute("SELECT 1 FROM sqlite_master WHERE name = 'layer_styles'").fetchone():
+            return set()
+        return {r[0] for r in db.execute("SELECT f_table_name FROM layer_styles WHERE useAsDefault = 1")}
 
 
 def render(layers, extent, crs, width, title):

@@ -165,6 +165,49 @@ def run_job(service, body, feedback, poll_s=1.0):
     return job
 
 
+ACTIVE = ("queued", "running")
+
+
+def run_sweep(service, sweep, feedback, poll_s=1.0):
+    """Follows a sweep on the service (anything with its `id`) to its end: the mean progress of its layouts drives the
+    bar. The service has no route that cancels a sweep, so Cancel DELETEs each of its unfinished jobs (docs/
+    service.md, DELETE /jobs/{id}); the running ones stop within a step. Returns the sweep (GET /sweeps/{id})."""
+    cancelled = False
+    while True:
+        sweep = service.json("GET", f"/sweeps/{sweep['id']}")
+        feedback.setProgress(100.0 * sweep["progress"]["fraction"])
+        if sweep["status"] != "running":
+            return sweep
+        if feedback.isCanceled() and not cancelled:
+            cancel_jobs(service, sweep, feedback)
+            cancelled = True
+        time.sleep(poll_s)
+
+
+def cancel_jobs(service, sweep, feedback):
+    for v in sweep["variants"]:
+        if v["status"] not in ACTIVE:
+            continue
+        try:
+            service.json("DELETE", f"/jobs/{v['job']}")
+            feedback.pushInfo(f"cancelling layout {v['variant']} (job {v['job']})")
+        except ServiceError as e:  # 409: it finished meanwhile
+            feedback.pushWarning(f"layout {v['variant']} (job {v['job']}) not cancelled: {e.text}")
+
+
+def find_sweep(service, name):
+    """The newest sweep named `name` on the service (GET /sweeps, newest first, page by page), or None."""
+    path = "/sweeps?limit=1000"
+    while path:
+        page = service.json("GET", path)
+        for s in page["sweeps"]:
+            if s["name"] == name:
+                return s
+        nxt = page.get("next")  # "/api/v1/sweeps?...&cursor=...": the path after the base
+        path = nxt[nxt.index("/sweeps"):] if nxt else None
+    return None
+
+
 def fetch_results(service, job_id, out_dir, feedback):
     """The job's metrics.json, rasters with their styles and hazard.gpkg into out_dir, laid out as
     `runout run --out` lays them out."""

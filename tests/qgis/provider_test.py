@@ -14,6 +14,10 @@ at draft fidelity: ctest `qgis_provider`.
    particle count as the local run.
 4. runout:comparelayouts on a two-layout sweep (C0, C6) of the scene written in 2: one row per layout, the
    baseline first, the decision metrics' columns.
+5. The same sweep through the service of 3: the same table, and the decision metrics equal bit for bit to the
+   local runs' (one thread a run on both sides); refusals naming SWEEP / SERVICE_DEM, BASELINE, an ensemble.
+Before QGIS (and without it): the table conversions of an ensemble summary and of a service comparison, in
+plain Python (qgis/runout_provider/tables.py).
 Exits 77 (ctest: skipped) when qgis_process is not installed.
 """
 import argparse
@@ -197,7 +201,9 @@ def start_service(runout, work):
     log = open(work / "serve.log", "w")
     proc = subprocess.Popen([runout, "serve", "--port", "0", "--db", str(work / "service.db"), "--runs",
                              str(work / "service-runs"), "--scene-dir", str(FLUME), "--token-file", str(work / "token"),
-                             "--workers", "1", "--threads-per-job", "1"], stdout=subprocess.PIPE, stderr=log, text=True)
+                             # two workers: the sweep's two layouts at once, as the local sweep's JOBS 2; one
+                             # thread each, as locally, so that the runs repeat bit for bit (check_compare_service)
+                             "--workers", "2", "--threads-per-job", "1"], stdout=subprocess.PIPE, stderr=log, text=True)
     line = proc.stdout.readline()
     if "listening on " not in line:
         proc.kill()
@@ -205,44 +211,53 @@ def start_service(runout, work):
     return proc, line.split("listening on ")[1].split()[0]
 
 
-def check_service(q, layers, work, runout, dem_wkt, local):
-    proc, url = start_service(runout, work)
-    try:
-        wrong = work / "wrong-token"
-        wrong.write_text("not-the-token\n")
-        params = run_scene_params(layers, work / "service-refused", runout)
-        # 0.5 s of flow: this checks the transport (submit, follow, fetch), the local run the physics
-        params.update(SERVICE_URL=url, TOKEN_FILE=wrong, SERVICE_DEM="flume_dem.asc", DURATION=0.5)
-        rc, _, text = q.run("runout:runscene", params)
-        check(rc != 0 and "401" in text, "a wrong token is refused with the service's 401")
-        out = work / "service"
-        params.update(TOKEN_FILE=work / "token", OUTPUT=out)
-        t0 = time.monotonic()
-        rc, res, text = q.run("runout:runscene", params)
-        print(f"      runout:runscene (service) {time.monotonic() - t0:.0f} s")
-        check(rc == 0 and res is not None, "runout:runscene through the service succeeds" + ("" if rc == 0 else ": " + text[-2000:]))
-        if res is None:
-            return
-        check(metrics(out)["status"] == "completed", "the service's metrics.json: completed")
-        check_rasters(out, dem_wkt)
-        check_hazard(out)
-        if local is not None:
-            same = [k for k in ("fluid_initial", "boundary") if metrics(out)["particles"][k] == metrics(local)["particles"][k]]
-            check(len(same) == 2, "the service built the local run's particles (flow and walls described)")
-    finally:
-        proc.terminate()
-        proc.wait(timeout=60)
+def check_service(q, layers, work, runout, dem_wkt, local, url):
+    wrong = work / "wrong-token"
+    wrong.write_text("not-the-token\n")
+    params = run_scene_params(layers, work / "service-refused", runout)
+    # 0.5 s of flow: this checks the transport (submit, follow, fetch), the local run the physics
+    params.update(SERVICE_URL=url, TOKEN_FILE=wrong, SERVICE_DEM="flume_dem.asc", DURATION=0.5)
+    rc, _, text = q.run("runout:runscene", params)
+    check(rc != 0 and "401" in text, "a wrong token is refused with the service's 401")
+    out = work / "service"
+    params.update(TOKEN_FILE=work / "token", OUTPUT=out)
+    t0 = time.monotonic()
+    rc, res, text = q.run("runout:runscene", params)
+    print(f"      runout:runscene (service) {time.monotonic() - t0:.0f} s")
+    check(rc == 0 and res is not None, "runout:runscene through the service succeeds" + ("" if rc == 0 else ": " + text[-2000:]))
+    if res is None:
+        return
+    check(metrics(out)["status"] == "completed", "the service's metrics.json: completed")
+    check_rasters(out, dem_wkt)
+    check_hazard(out)
+    if local is not None:
+        same = [k for k in ("fluid_initial", "boundary") if metrics(out)["particles"][k] == metrics(local)["particles"][k]]
+        check(len(same) == 2, "the service built the local run's particles (flow and walls described)")
 
 
-def check_compare(q, work, runout, local):
-    # The scene the provider wrote, cut to 2 s (the front passes the outlet by 1.5 s): two layouts at once
+SWEEP_NAME = "flume-qgis-sweep"
+
+
+def write_sweep(work, local):
+    """The scene the provider wrote, cut to 2 s (the front passes the outlet by 1.5 s), as the base of a sweep
+    of C0 and C6."""
     base = json.loads((local / "scene.json").read_text())
     base["duration"] = 2.0
     (work / "base.json").write_text(json.dumps(base))
     sweep = work / "sweep.json"
-    sweep.write_text(json.dumps({"name": "flume-qgis-sweep", "base": "base.json", "fidelity": "draft",
+    sweep.write_text(json.dumps({"name": SWEEP_NAME, "base": "base.json", "fidelity": "draft",
                                  "variants": [{"name": "C0", "structures": []},
                                               {"name": "C6", "structures": ["FD_P1", "CD_P2"]}]}))
+    return sweep
+
+
+def read_table(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def check_compare(q, work, runout, sweep):
+    """The local sweep, two layouts at once; returns the table's rows (None when it failed)."""
     table = work / "compare.csv"
     t0 = time.monotonic()
     rc, res, text = q.run("runout:comparelayouts", {"SWEEP": sweep, "JOBS": 2, "THREADS": 1, "RUNOUT": runout,
@@ -250,10 +265,9 @@ def check_compare(q, work, runout, local):
     print(f"      runout:comparelayouts {time.monotonic() - t0:.0f} s")
     check(rc == 0, "runout:comparelayouts runs the sweep and compares it" + ("" if rc == 0 else ": " + text[-2000:]))
     if rc != 0:
-        return
+        return None
     check("...50" in text and "...100" in text, "the sweep's progress reached QGIS's progress bar")
-    with open(table, newline="") as f:
-        rows = list(csv.DictReader(f))
+    rows = read_table(table)
     check([r["layout"] for r in rows] == ["C0", "C6"], f"one row per layout, the baseline first ({[r['layout'] for r in rows]})")
     cols = set(rows[0]) if rows else set()
     outlet = "monitors.section.Outlet.peak_discharge_m3_s"
@@ -265,6 +279,146 @@ def check_compare(q, work, runout, local):
         check(rows[0]["baseline"] == "1" and rows[1]["baseline"] == "0" and float(rows[0][outlet + "_pct"]) == 0,
               "the baseline row is marked and at 0 %")
         check(rows[0][fd] == "" and float(rows[1][fd]) >= 0, "FD_P1's retained volume: none in C0, a value in C6")
+    return rows
+
+
+def decision_values_cli(doc):
+    """{(layout, metric): value} of `runout compare --format json`'s decision metrics."""
+    out = {}
+    for r in doc["rows"]:
+        if r["decision"]:
+            out[(doc["baseline"], r["metric"])] = r["baseline"]
+            out.update({(label, r["metric"]): r["values"][k] for k, label in enumerate(doc["runs"])})
+    return out
+
+
+def decision_values_service(doc):
+    """{(layout, metric): value} of the service's GET /compare decision metrics."""
+    out = {}
+    for r in doc["metrics"]:
+        if r["decision"]:
+            out[(doc["baseline"]["label"], r["metric"])] = r["baseline"]
+            out.update({(j["label"], r["metric"]): r["values"][k] for k, j in enumerate(doc["jobs"])})
+    return out
+
+
+def check_compare_service(q, work, runout, sweep, url, local_rows):
+    """The same sweep through the service. Its runs are new ones (the base's DEM is named `flume_dem.asc`, not the
+    local path, so the manifests differ), at one thread each as the local runs: a run on one thread repeats bit
+    for bit on one machine (docs/validation.md, "Not the same run on every machine"; the MPI sweep's stored
+    records are checked so, docs/cluster.md), so the values must be equal, not close."""
+    runs, table = work / "service-sweep", work / "compare-service.csv"
+    params = {"SWEEP": sweep, "SERVICE_URL": url, "TOKEN_FILE": work / "token", "RUNS": runs, "OUTPUT": table}
+    t0 = time.monotonic()
+    rc, _, text = q.run("runout:comparelayouts", params)
+    print(f"      runout:comparelayouts (service) {time.monotonic() - t0:.0f} s")
+    check(rc == 0, "runout:comparelayouts through the service" + ("" if rc == 0 else ": " + text[-2000:]))
+    if rc != 0:
+        return
+    check("...100" in text, "the service sweep's progress reached QGIS's progress bar")
+    rows = read_table(table)
+    check([r["layout"] for r in rows] == ["C0", "C6"], f"the service's table: C0 then C6 ({[r['layout'] for r in rows]})")
+    if local_rows is not None and rows:
+        same_cols = set(rows[0]) == set(local_rows[0])
+        check(same_cols, f"the service's table has the local one's columns ({sorted(set(rows[0]) ^ set(local_rows[0]))} differ)")
+        diff = [(r["layout"], k) for r, lr in zip(rows, local_rows) for k in lr if k != "run_id" and r.get(k) != lr[k]]
+        check(same_cols and not diff, f"the service's table has the local one's values ({diff[:5]} differ)")
+    local_doc = json.loads(subprocess.run([runout, "compare", "--sweep", SWEEP_NAME, "--format", "json", "--db",
+                                           str(work / "sweep-runs" / "runout.db")], capture_output=True, text=True).stdout)
+    saved = sorted(runs.glob("compare-sweep-*.json"))
+    check(len(saved) == 1, f"the service's comparison is kept in RUNS ({[p.name for p in saved]})")
+    if saved:
+        local, served = decision_values_cli(local_doc), decision_values_service(json.loads(saved[0].read_text()))
+        differ = sorted(k for k in local.keys() | served.keys() if local.get(k, "absent") != served.get(k, "absent"))
+        check(len(local) >= 10 and not differ, f"the service's decision metrics equal the local runs' bit for bit "
+              f"({len(local)} values; differ: {differ[:5]})")
+    check_service_refusals(q, work, sweep, url)
+
+
+def check_service_refusals(q, work, sweep, url):
+    """What comparelayouts refuses with a service, each naming the parameter (no run: seconds each)."""
+    base = {"SERVICE_URL": url, "TOKEN_FILE": work / "token", "RUNS": work / "service-refused-sweep",
+            "OUTPUT": work / "refused.csv"}
+    rc, _, text = q.run("runout:comparelayouts", {**base, "SWEEP": sweep, "SERVICE_DEM": "../flume_dem.asc"})
+    check(rc != 0 and "SWEEP: the service refused" in text and "(422)" in text and "terrain.dem" in text
+          and "SERVICE_DEM" in text, "a DEM outside the service's scene dir: its 422, naming SWEEP, terrain.dem and SERVICE_DEM")
+    rc, _, text = q.run("runout:comparelayouts", {**base, "SWEEP_NAME": SWEEP_NAME, "BASELINE": "C9"})
+    check(rc != 0 and "BASELINE: 'C9' is not a layout of sweep" in text and "C0, C6" in text,
+          "SWEEP_NAME finds the service's sweep; an unknown BASELINE is refused with its layouts")
+    ensemble = work / "ensemble.json"
+    ensemble.write_text(json.dumps({**json.loads(sweep.read_text()), "name": "flume-qgis-ensemble", "ensemble": {
+        "parameters": [{"pointer": "/materials/0/friction_angle", "values": [27, 29]}]}}))
+    rc, _, text = q.run("runout:comparelayouts", {**base, "SWEEP": ensemble})
+    check(rc != 0 and "SWEEP:" in text and "ensemble sweep; the service takes no ensemble" in text,
+          "an ensemble sweep with a service is refused, naming SWEEP")
+
+
+# Pure Python (no QGIS): the provider's conversions of comparisons into tables (qgis/runout_provider/tables.py).
+Q = "monitors.section.Outlet.peak_discharge_m3_s"
+ARR = "terrain.protected_zones.Village.arrival_time_s"
+FD = "terrain.structures.deposition_area.FD_P1.retained_volume_m3"
+
+
+def check_ensemble_table(tables):
+    """An ensemble summary (ensemble_summary.hpp's JSON) written by hand, and the rows it must give."""
+    q = lambda a, b, c, n: {"p10": a, "p50": b, "p90": c, "count": n, "never": 0}  # noqa: E731
+    summary = {"sweep": "ens", "layouts": ["G0", "G1"], "members": 4, "incomplete": 1, "ranking_metric": Q,
+               "ranked_members": 4, "layouts_detail": {
+                   "G0": {"first_share": 0.25, "metrics": {
+                       Q: q(1.0, 1.5, 2.0, 4), ARR: {"p10": None, "p50": None, "p90": None, "count": 0, "never": 4}}},
+                   "G1": {"first_share": 0.75, "metrics": {
+                       Q: q(0.5, 0.75, 1.25, 4), ARR: {"p10": 3.0, "p50": 3.5, "p90": 4.0, "count": 3, "never": 1},
+                       FD: q(10.0, 12.0, 14.0, 4)}}}}
+    check(tables.is_ensemble(summary) and not tables.is_ensemble({"rows": []}), "an ensemble summary is told by layouts_detail")
+    names, rows = tables.ensemble_table_of(summary)
+    expected = ["layout", "first_share"] + [f"{m}_{s}" for m in (Q, ARR, FD) for s in ("p10", "p50", "p90", "never")]
+    check(names == expected, "the ensemble table's fields: layout, first_share, p10/p50/p90/never per metric"
+          + ("" if names == expected else f" ({names})"))
+    expected = [["G0", 0.25, 1.0, 1.5, 2.0, 0, None, None, None, 4, None, None, None, None],
+                ["G1", 0.75, 0.5, 0.75, 1.25, 0, 3.0, 3.5, 4.0, 1, 10.0, 12.0, 14.0, 0]]
+    check(rows == expected, "one row per layout, baseline first; never counted; empty where no member has a value or "
+          "the layout no such metric" + ("" if rows == expected else f" ({rows})"))
+    check([r[0] for r in tables.ensemble_table_of(summary, "G1")[1]] == ["G1", "G0"], "a BASELINE layout comes first")
+    try:
+        tables.ensemble_table_of(summary, "G9")
+        check(False, "an unknown baseline of an ensemble is refused")
+    except ValueError as e:
+        check("'G9'" in str(e) and "G0, G1" in str(e), f"an unknown baseline of an ensemble is refused with the layouts ({e})")
+    check([tables.field_kind(n) for n in ("layout", "first_share", Q + "_p50", Q + "_never")] == ["text", "double", "double", "int"],
+          "the ensemble table's field types: text, double, double, integer count")
+
+
+def check_service_table(tables):
+    """A service GET /compare document written by hand (layouts in submission order, C6 before C1; one metric
+    that is not a decision metric), and the table `runout compare --format json` of the same runs gives."""
+    doc = {"baseline": {"job": 1, "run_id": 11, "label": "C0"}, "sweep": None, "outlet": "Outlet", "ranking": None,
+           "jobs": [{"job": 3, "run_id": 13, "label": "C6"}, {"job": 2, "run_id": 12, "label": "C1"}],
+           "metrics": [{"metric": Q, "label": "Outlet Q_m [m³/s]", "decision": True, "better": "lower", "baseline": 2.0,
+                        "baseline_never": False, "values": [1.0, 1.5], "never": [False, False],
+                        "difference": [-1.0, -0.5], "percent": [-50.0, -25.0]},
+                       {"metric": ARR, "label": "Village arrival [s]", "decision": True, "better": "higher",
+                        "baseline": 3.0, "baseline_never": False, "values": [None, 3.5], "never": [True, False],
+                        "difference": [None, 0.5], "percent": [None, 50.0 / 3]},
+                       {"metric": "particles.fluid_initial", "label": "particles.fluid_initial", "decision": False,
+                        "better": None, "baseline": 100, "baseline_never": False, "values": [100, 100],
+                        "never": [False, False], "difference": [0, 0], "percent": [0.0, 0.0]}]}
+    names, rows = tables.table_of(tables.cli_compare_of_service(doc, False))
+    expected = ["layout", "run_id", "baseline", Q, Q + "_pct", ARR, ARR + "_pct", ARR + "_never"]
+    check(names == expected, "the service's comparison gives the CLI's fields, decision metrics only"
+          + ("" if names == expected else f" ({names})"))
+    expected = [["C0", 11, 1, 2.0, 0.0, 3.0, 0.0, 0], ["C1", 12, 0, 1.5, -25.0, 3.5, 50.0 / 3, 0],
+                ["C6", 13, 0, 1.0, -50.0, None, None, 1]]
+    check(rows == expected, "the service's layouts: baseline first, the rest by name, values and never flags with "
+          "them" + ("" if rows == expected else f" ({rows})"))
+    names, _ = tables.table_of(tables.cli_compare_of_service(doc, True))
+    check("particles.fluid_initial" in names, "ALL keeps the service's other metrics")
+
+
+def check_tables():
+    sys.path.insert(0, str(ROOT / "qgis"))
+    from runout_provider import tables  # no QGIS import: the package's __init__ imports nothing
+    check_ensemble_table(tables)
+    check_service_table(tables)
 
 
 def main():
@@ -272,10 +426,11 @@ def main():
     ap.add_argument("--runout", required=True)
     ap.add_argument("--work", required=True, type=pathlib.Path)
     args = ap.parse_args()
+    check_tables()  # plain Python: checked with or without QGIS
     exe = qgis_process_binary()
     if exe is None:
         print("SKIPPED: qgis_process is not installed (Debian's qgis package; scripts/install-deps.sh installs it)")
-        return 77
+        return 1 if FAILURES else 77
     shutil.rmtree(args.work, ignore_errors=True)
     args.work.mkdir(parents=True)
     t0 = time.monotonic()
@@ -291,9 +446,16 @@ def main():
     local = check_local(q, layers, args.work, args.runout, dem_wkt)
     if local is not None:
         check_render(local, layers, args.work)
-    check_service(q, layers, args.work, args.runout, dem_wkt, local)
-    if local is not None:
-        check_compare(q, args.work, args.runout, local)
+    proc, url = start_service(args.runout, args.work)
+    try:
+        check_service(q, layers, args.work, args.runout, dem_wkt, local, url)
+        if local is not None:
+            sweep = write_sweep(args.work, local)
+            local_rows = check_compare(q, args.work, args.runout, sweep)
+            check_compare_service(q, args.work, args.runout, sweep, url, local_rows)
+    finally:
+        proc.terminate()
+        proc.wait(timeout=60)
     print(f"{len(FAILURES)} failed; {time.monotonic() - t0:.0f} s")
     return 1 if FAILURES else 0
 
