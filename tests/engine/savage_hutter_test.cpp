@@ -40,6 +40,18 @@
 //       Model::thickness_at within 1e-9 m.
 //   A case that misses its aim stays as a DISABLED_ test run by ctest with WILL_FAIL
 //   (SavageHutterSimilarity.KnownFailure.*, tests/CMakeLists.txt); the limits are not moved after the run.
+//
+// Result of the first run (2026-12-06 05:09 UTC; dp 4 / 2 / 1 m: 1 020 / 4 124 / 16 476 particles, not the
+// "about 1 250, 5 000, 20 000" estimated above, which counted the slope's area rather than the plan's; 53 / 65 /
+// 89 steps): L2 h 1.72 / 1.29 / 1.01 %, L2 h u 1.78 / 1.39 / 1.14 %, Lmax h 3.56 / 2.71 / 2.07 %, Lmax h u
+// 4.24 / 3.23 / 2.46 %. S1, S3, S4 hold and the errors fall at each halving (S2's first part:
+// ErrorsFallAsParticlesAreAdded); the observed order is 0.38 (h) and 0.32 (h u) against 0.5: S2's second part
+// is the known failure DISABLED_ErrorsFallAtOrderOneHalf (split off as the sheets' B2 travel was, after the run).
+// Why (diagnostic runs, not part of the test): the release's own SPH smoothing is already 1.57 / 0.92 / 0.54 %
+// of L2 h at t = 0 (order 0.77), most of it at the rim; by 5 s the rim and dry ring carry 1.46 / 1.11 / 0.89 %
+// and the interior (h_a > 1 m) 0.90 / 0.65 / 0.48 %: the thin edge, where the adaptive kernel grows towards
+// its cap 4 h_k0, converges slowest. A 4x smaller step (cfl 0.05) lowers every error by 20-30 % but leaves the
+// order at 0.45 / 0.36, so the first-order step is a part, not the cause.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -307,8 +319,8 @@ TEST(SavageHutterSimilarity, WithinFivePercentAtTheFinestSpacing) {
   EXPECT_LE(r.e.hu_max, 0.10) << "S3: Lmax of h u";
 }
 
-// S2 over dp = 4, 2, 1 m.
-TEST(SavageHutterSimilarity, ErrorsFallAsParticlesAreAdded) {
+// S2 over dp = 4, 2, 1 m. `order_too`: also the observed order (S2's second part, the known failure).
+void expect_errors_fall(bool order_too) {
   const std::vector<real> spacings = {4.0, 2.0, 1.0};
   std::vector<Errors> e;
   for (real dp : spacings) e.push_back(run_similarity(dp).e);
@@ -319,6 +331,13 @@ TEST(SavageHutterSimilarity, ErrorsFallAsParticlesAreAdded) {
   const real order_h = std::log2(e.front().h_l2 / e.back().h_l2) / 2;
   const real order_hu = std::log2(e.front().hu_l2 / e.back().hu_l2) / 2;
   std::printf("observed order 4 -> 1 m: h %.2f, hu %.2f\n", order_h, order_hu);
-  EXPECT_GE(order_h, 0.5) << "S2: order of L2 h";
-  EXPECT_GE(order_hu, 0.5) << "S2: order of L2 h u";
+  if (order_too) {
+    EXPECT_GE(order_h, 0.5) << "S2: order of L2 h";
+    EXPECT_GE(order_hu, 0.5) << "S2: order of L2 h u";
+  }
 }
+
+TEST(SavageHutterSimilarity, ErrorsFallAsParticlesAreAdded) { expect_errors_fall(false); }
+
+// Known failure (tests/CMakeLists.txt, WILL_FAIL): S2's order, 0.38 (h) and 0.32 (h u) at the first run.
+TEST(SavageHutterSimilarity, DISABLED_ErrorsFallAtOrderOneHalf) { expect_errors_fall(true); }
