@@ -108,15 +108,15 @@ EnsembleParameter read_parameter(const json& o, const std::string& path, const j
   return p;
 }
 
-double quantile(const EnsembleParameter& p, double u) {
+}  // namespace
+
+double parameter_quantile(const EnsembleParameter& p, double u) {
   namespace bm = boost::math;
   if (p.distribution == "uniform") return p.a + u * (p.b - p.a);
   if (p.distribution == "normal") return bm::quantile(bm::normal(p.a, p.b), u);
   if (p.distribution == "lognormal") return bm::quantile(bm::lognormal(std::log(p.a), p.b), u);
   return bm::quantile(bm::triangular(p.a, p.b, p.c), u);
 }
-
-}  // namespace
 
 std::vector<std::vector<double>> latin_hypercube(size_t n, size_t d, uint64_t seed) {
   std::mt19937_64 rng(seed);
@@ -192,7 +192,7 @@ std::vector<std::vector<ParameterValue>> ensemble_members(const Ensemble& e) {
       }
       for (size_t a = 0; a < sampled_axes.size(); ++a) {
         const auto& p = e.parameters[sampled_axes[a]];
-        m[sampled_axes[a]] = {p.pointer, quantile(p, u[s][a])};
+        m[sampled_axes[a]] = {p.pointer, parameter_quantile(p, u[s][a])};
       }
       members.push_back(std::move(m));
     }

@@ -80,10 +80,12 @@ double quantile(std::vector<double> values, double p) {
   return values[lo] + (h - static_cast<double>(lo)) * (values[hi] - values[lo]);
 }
 
-std::optional<EnsembleSummary> summarise_ensemble(const RunStore& store, const std::string& sweep) {
+std::optional<EnsembleSummary> summarise_ensemble(const RunStore& store, const std::string& sweep,
+                                                  const std::string& fidelity) {
   std::map<std::string, int64_t> latest;  // variant -> latest completed run
   for (const auto& r : store.list_runs(sweep))
-    if (r.status == "completed" && split_member_name(r.variant)) latest[r.variant] = r.id;
+    if (r.status == "completed" && split_member_name(r.variant) && (fidelity.empty() || r.fidelity == fidelity))
+      latest[r.variant] = r.id;
   if (latest.empty()) return std::nullopt;
   EnsembleSummary s;
   s.sweep = sweep;

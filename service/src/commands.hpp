@@ -31,11 +31,13 @@ Action add_serve(CLI::App& app);
 Action add_tradeoff(CLI::App& app);
 Action add_calibrate(CLI::App& app);
 Action add_calibrate_material(CLI::App& app);
+Action add_study(CLI::App& app);
 Action add_schema(CLI::App& app);
 
 // In the order `runout --help` lists them.
 inline const Command kCommands[] = {{"run", add_run},           {"sweep", add_sweep},
                                     {"compare", add_compare},   {"report", add_report},
+                                    {"study", add_study},
                                     {"serve", add_serve},
                                     {"tradeoff", add_tradeoff}, {"calibrate", add_calibrate},
                                     {"calibrate-material", add_calibrate_material},

@@ -205,7 +205,7 @@ TEST_F(Cli, HelpAndVersionExit0) {
   ASSERT_EQ(run("--help"), 0);
   EXPECT_NE(output().find("compare"), std::string::npos) << output();
   // Every subcommand's help ends with an example that uses a shipped file or none.
-  for (const char* sub : {"run", "sweep", "compare", "report", "serve", "tradeoff", "calibrate", "calibrate-material", "schema"}) {
+  for (const char* sub : {"run", "sweep", "compare", "report", "serve", "tradeoff", "calibrate", "calibrate-material", "study", "schema"}) {
     ASSERT_EQ(run(std::string(sub) + " --help"), 0) << sub;
     const std::string help = output();
     const size_t example = help.find("Example");

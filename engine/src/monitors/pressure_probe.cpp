@@ -5,10 +5,12 @@
 // denominator, the kernel-interpolated fluid fraction, is under wet_kernel_sum the point is dry: the
 // normalisation would blow a lone splash particle's pressure up to a reading, so the probe reports 0.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 
+#include "../ordered_sum.hpp"
 #include "monitor_types.hpp"
 #include "runout/engine/eos.hpp"
 #include "runout/engine/rheology.hpp"
@@ -41,21 +43,21 @@ class PressureProbe final : public Monitor<D> {
     const Vec<D> x = point_;
     const TaitEOS* eos = eos_.data();
     const real* p_min = p_min_.data();
-    real volume = 0, weighted = 0;
+    std::array<real, 2> sums{};  // volume, pressure-weighted volume; repeat to the bit (ordered_sum.hpp)
     with_kernel<D>(cfg.kernel, cfg.smoothing_length, [&](auto kernel) {
-#pragma omp parallel for reduction(+ : volume, weighted) schedule(static)
-      for (size_t j = 0; j < f.size(); ++j) {
+      sums = ordered_sums<2>(f.size(), [&](size_t j, std::array<real, 2>& s) {
         bool near = true;  // box test first: most particles are far
         for (int d = 0; d < D; ++d) near = near && std::abs(f.pos[d][j] - x[d]) < support;
-        if (!near || Solver<D>::is_inlet_buffer(f.tag[j])) continue;
+        if (!near || Solver<D>::is_inlet_buffer(f.tag[j])) return;
         const real w = kernel.W((f.position(j) - x).norm());
-        if (w <= 0) continue;
+        if (w <= 0) return;
         const int k = f.material[j];
         const real vw = f.mass[j] / f.rho[j] * w;
-        volume += vw;
-        weighted += std::max(eos[k].pressure(f.rho[j]), p_min[k]) * vw;
-      }
+        s[0] += vw;
+        s[1] += std::max(eos[k].pressure(f.rho[j]), p_min[k]) * vw;
+      });
     });
+    const real volume = sums[0], weighted = sums[1];
     const bool wet = volume >= wet_;
     const real p = wet ? weighted / volume : 0.0;
     const real t = s.time();

@@ -7,6 +7,7 @@
 
 #include "runout/engine/geometry.hpp"
 #include "runout/engine/load_filter.hpp"
+#include "../ordered_sum.hpp"
 #include "monitor_types.hpp"
 
 namespace runout::monitor_detail {
@@ -64,17 +65,17 @@ class SectionGauge final : public Monitor<D> {
   void after_step(const Solver<D>& s) override {
     const auto& f = s.fluid();
     if (side_.size() < s.id_bound()) side_.resize(s.id_bound(), 0);  // particles an inlet added
-    real dv = 0;
-#pragma omp parallel for reduction(+ : dv) schedule(static)
-    for (size_t i = 0; i < f.size(); ++i) {
-      if (Solver<D>::is_inlet_buffer(f.tag[i])) continue;  // not flow yet
+    const real dv = ordered_sum(f.size(), [&](size_t i) -> real {  // repeats to the bit (ordered_sum.hpp)
+      if (Solver<D>::is_inlet_buffer(f.tag[i])) return 0;  // not flow yet
       const int now = raw_side(f, i) * downstream_;
-      if (now == 0) continue;
+      if (now == 0) return 0;
       int8_t& before = side_[f.id[i]];
-      if (before == -1 && now == 1) dv += f.mass[i] * inv_rho0_[f.material[i]];
-      if (before == 1 && now == -1) dv -= f.mass[i] * inv_rho0_[f.material[i]];
+      real d = 0;
+      if (before == -1 && now == 1) d = f.mass[i] * inv_rho0_[f.material[i]];
+      if (before == 1 && now == -1) d = -f.mass[i] * inv_rho0_[f.material[i]];
       before = static_cast<int8_t>(now);
-    }
+      return d;
+    });
     passed_ += dv;
     if (arrival_time_ < 0 && passed_ > 0 && passed_ >= arrival_volume_) arrival_time_ = s.time();
     if (s.time() > hydrograph_.latest_time()) hydrograph_.add(s.time(), dv / (s.time() - hydrograph_.latest_time()), 0);

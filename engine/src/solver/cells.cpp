@@ -1,5 +1,7 @@
 #include "impl.hpp"
 
+#include "../ordered_sum.hpp"
+
 #include <omp.h>
 
 #include <algorithm>
@@ -45,10 +47,9 @@ void Solver<D>::sort_and_build_cells() {
   auto& I = *impl_;
   const size_t n = fluid_.size();
   I.sort_buf.resize(n);
-  size_t removed = 0;
-  real wrap_pe = 0;  // change of -m g.x from this step's periodic wraps: not a physical change of PE
-#pragma omp parallel for reduction(+ : removed, wrap_pe)
-  for (size_t i = 0; i < n; ++i) {
+  // sums[0]: particles removed; sums[1]: the change of -m g.x from this step's periodic wraps (not a physical
+  // change of PE). Ordered sums: the energy series repeats to the bit (ordered_sum.hpp).
+  const auto sums = ordered_sums<2>(n, [&](size_t i, std::array<real, 2>& s) {
     Vec<D> p = fluid_.position(i);
     for (int d = 0; d < D; ++d) {
       if (config_.periodic[d]) {
@@ -57,7 +58,7 @@ void Solver<D>::sort_and_build_cells() {
         if (x < 0 || x >= L) {
           x -= std::floor(x / L) * L;
           if (x >= L) x = 0;
-          wrap_pe -= fluid_.mass[i] * config_.gravity[d] * (config_.domain_min[d] + x - p[d]);
+          s[1] -= fluid_.mass[i] * config_.gravity[d] * (config_.domain_min[d] + x - p[d]);
           p[d] = config_.domain_min[d] + x;
           fluid_.pos[d][i] = p[d];
           if (config_.integrator == Integrator::verlet) pos_saved_[d][i] = p[d];
@@ -66,8 +67,10 @@ void Solver<D>::sort_and_build_cells() {
     }
     const bool out = removed_at_sort(p, fluid_.tag[i]) || (!outflow_marked_.empty() && outflow_marked_[i]);
     I.sort_buf[i] = {out ? kRemovedKey : Impl::pack(I.coords(p)), static_cast<uint32_t>(i)};
-    removed += out ? 1 : 0;
-  }
+    s[0] += out ? 1 : 0;
+  });
+  const size_t removed = static_cast<size_t>(sums[0]);
+  const real wrap_pe = sums[1];
   potential_outflow_ -= wrap_pe;  // keeps PE(t) + potential_outflow_ continuous across a wrap
   I.candidates_valid = false;
   outflow_marked_.clear();

@@ -139,11 +139,14 @@ struct Solver<D>::Impl {
 
   const uint32_t* list_of(uint32_t i) const { return lists.of(i); }
 
-  // The fluid particles, cell by cell, shared among the threads of the enclosing parallel region.
+  // The fluid particles, cell by cell, shared among the threads of the enclosing parallel region. A static
+  // schedule (chunks of 16 cells dealt round-robin): the same cells go to the same thread every step, so the
+  // per-thread accumulators (accumulate) hold the same partial sums and a run repeats to the bit at a given
+  // thread count; with a dynamic schedule it did not.
   template <class F>
   void for_each_fluid(F&& f) const {
     const size_t ncells = fcell_key.size();
-#pragma omp for schedule(dynamic, 16)
+#pragma omp for schedule(static, 16)
     for (size_t c = 0; c < ncells; ++c)
       for (uint32_t i = fcell_begin[c]; i < fcell_begin[c + 1]; ++i) f(i);
   }

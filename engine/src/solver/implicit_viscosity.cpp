@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "../ordered_sum.hpp"
 #include "impl.hpp"
 #include "runout/engine/kernels.hpp"
 
@@ -145,11 +146,10 @@ void precondition(size_t n, const std::vector<real>& diag, const FrictionDrag<D>
   }
 }
 
+// Repeats to the bit at a given thread count (ordered_sum.hpp): a CG that iterates differently from run to run
+// would make no two-thread run repeat.
 real dot(size_t nd, const real* a, const real* b) {
-  real s = 0;
-#pragma omp parallel for schedule(static) reduction(+ : s)
-  for (size_t k = 0; k < nd; ++k) s += a[k] * b[k];
-  return s;
+  return ordered_sum(nd, [&](size_t k) { return a[k] * b[k]; });
 }
 
 }  // namespace

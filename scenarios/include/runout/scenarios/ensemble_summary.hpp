@@ -47,9 +47,11 @@ struct EnsembleSummary {
   size_t ranked_members = 0;
 };
 
-// The summary of the stored ensemble sweep `sweep`: the latest completed run of each LAYOUT-eNNN. nullopt when
-// the sweep has no completed run named as an ensemble member.
-std::optional<EnsembleSummary> summarise_ensemble(const RunStore& store, const std::string& sweep);
+// The summary of the stored ensemble sweep `sweep`: the latest completed run of each LAYOUT-eNNN (at `fidelity`
+// when it is not empty: the store's fidelity name, "screening", "draft", "custom"). nullopt when the sweep has no
+// completed run named as an ensemble member.
+std::optional<EnsembleSummary> summarise_ensemble(const RunStore& store, const std::string& sweep,
+                                                  const std::string& fidelity = "");
 
 // The summary as JSON text ({sweep, layouts, members, incomplete, ranking_metric, ranked_members, layouts_detail:
 // {LAYOUT: {first_share, metrics: {METRIC: {p10, p50, p90, count, never}}}}}).

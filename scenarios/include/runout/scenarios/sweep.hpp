@@ -63,6 +63,8 @@ struct Sweep {
 // Parses the sweep file's "ensemble" object (throws SceneError naming the field, e.g.
 // "ensemble.parameters[1].sd"); each pointer must name a number of `base`.
 Ensemble parse_ensemble(const std::string& ensemble_json, const std::string& base_json);
+// A sampled parameter's value at probability u in (0, 1) (its distribution's quantile, Boost.Math).
+double parameter_quantile(const EnsembleParameter& p, double u);
 // The members' values, grid-major: member k = grid point k / samples, sample k % samples.
 std::vector<std::vector<ParameterValue>> ensemble_members(const Ensemble& e);
 // n points of a d-dimensional Latin hypercube in (0, 1): in each dimension, one point in each of the n strata
