@@ -229,15 +229,23 @@ ColourScale difference_colour_scale(const std::string& name, const std::string& 
   return s;
 }
 
-std::optional<RasterPicture> render_difference_raster(const fs::path& out_dir, const std::string& name) {
-  const fs::path tif = out_dir / "rasters" / ("diff_" + name + ".tif");
-  if (!fs::is_regular_file(tif)) return std::nullopt;
-  terrain::Grid g;
+namespace {
+
+// A sweep's raster for a picture; an unreadable file is a runtime_error (the caller says which run).
+terrain::Grid load_picture_grid(const fs::path& tif) {
   try {
-    g = terrain::load_dem(tif.string());
+    return terrain::load_dem(tif.string());
   } catch (const terrain::TerrainError& e) {
     throw std::runtime_error(e.what());
   }
+}
+
+}  // namespace
+
+std::optional<RasterPicture> render_difference_raster(const fs::path& out_dir, const std::string& name) {
+  const fs::path tif = out_dir / "rasters" / ("diff_" + name + ".tif");
+  if (!fs::is_regular_file(tif)) return std::nullopt;
+  const terrain::Grid g = load_picture_grid(tif);
   double m = 0;
   for (float v : g.values)
     if (!std::isnan(v)) m = std::max(m, std::abs(static_cast<double>(v)));
@@ -264,12 +272,7 @@ ColourScale probability_colour_scale(const std::string& title) {
 
 std::optional<RasterPicture> render_exceedance_raster(const fs::path& tif) {
   if (!fs::is_regular_file(tif)) return std::nullopt;
-  terrain::Grid g;
-  try {
-    g = terrain::load_dem(tif.string());
-  } catch (const terrain::TerrainError& e) {
-    throw std::runtime_error(e.what());
-  }
+  const terrain::Grid g = load_picture_grid(tif);
   RasterPicture p;
   p.scale = probability_colour_scale(terrain::band_description(tif.string()));
   p.width = g.nx;
