@@ -92,14 +92,28 @@ da::Particles release_particles(const json& scene_json, const terrain::TerrainMo
 
 // The flow on the bed grid's dp lattice: per node, sum_j V_j W(r, h_k,j) (the flow's volume per plan area:
 // thickness_at / cos(theta), the depth the 3D run's rasters hold) and sum_j V_j |u_j| W. Scattered from the
-// particles, each over its own support: the same sum thickness_at gathers, once per node.
+// particles, each over its own support: the same sum thickness_at gathers, once per node. The buffers live as
+// long as the run and only the window the particles reached is read and cleared: a grid-sized allocation per
+// sample cost the run most of its time in page faults (docs/performance.md, "The screening rung on a catchment").
 struct FlowOnGrid {
-  std::vector<double> depth, depth_speed;
+  std::vector<double> depth, depth_speed;  // row-major, nx nodes a row
+  int nx = 0;
+  int i0 = 0, i1 = -1, j0 = 0, j1 = -1;  // the nodes written since the last clear (inclusive; empty when i1 < i0)
+  void clear() {
+    for (int j = j0; j <= j1; ++j)
+      for (size_t c = static_cast<size_t>(j) * nx + i0; c <= static_cast<size_t>(j) * nx + i1; ++c)
+        depth[c] = depth_speed[c] = 0;
+    i0 = j0 = 0, i1 = j1 = -1;
+  }
 };
 
-FlowOnGrid flow_on_grid(const da::Model& model, const terrain::TerrainModel& tm, const std::vector<char>& out) {
+void flow_on_grid(const da::Model& model, const terrain::TerrainModel& tm, const std::vector<char>& out,
+                  FlowOnGrid& f) {
   const terrain::Grid& g = tm.bed;
-  FlowOnGrid f{std::vector<double>(g.values.size(), 0.0), std::vector<double>(g.values.size(), 0.0)};
+  if (f.depth.size() != g.values.size())
+    f.depth.assign(g.values.size(), 0.0), f.depth_speed.assign(g.values.size(), 0.0), f.nx = g.nx;
+  f.clear();
+  f.i0 = g.nx, f.j0 = g.ny;
   const da::Particles& p = model.particles();
   const double x_first = g.cx(0) - tm.origin_x, y_north = g.cy(0) - tm.origin_y;
   for (size_t k = 0; k < p.size(); ++k) {
@@ -110,6 +124,8 @@ FlowOnGrid flow_on_grid(const da::Model& model, const terrain::TerrainModel& tm,
     const int i1 = std::min(g.nx - 1, static_cast<int>(std::floor((p.x[k] + support - x_first) / g.dx)));
     const int j0 = std::max(0, static_cast<int>(std::ceil((y_north - p.y[k] - support) / g.dy)));
     const int j1 = std::min(g.ny - 1, static_cast<int>(std::floor((y_north - p.y[k] + support) / g.dy)));
+    if (i0 > i1 || j0 > j1) continue;
+    f.i0 = std::min(f.i0, i0), f.i1 = std::max(f.i1, i1), f.j0 = std::min(f.j0, j0), f.j1 = std::max(f.j1, j1);
     with_kernel<2>(model.config().kernel, hk, [&](const auto& kernel) {
       for (int j = j0; j <= j1; ++j)
         for (int i = i0; i <= i1; ++i) {
@@ -123,7 +139,7 @@ FlowOnGrid flow_on_grid(const da::Model& model, const terrain::TerrainModel& tm,
       return 0;
     });
   }
-  return f;
+  if (f.i1 < f.i0 || f.j1 < f.j0) f.i0 = f.j0 = 0, f.i1 = f.j1 = -1;
 }
 
 // What the run records as it goes: the inundation grid (fed the flow on the dp lattice as one dp x dp column a
@@ -180,12 +196,13 @@ class ScreeningWatch {
 
  private:
   void update_grid(const da::Model& m) {
-    const FlowOnGrid f = flow_on_grid(m, tm_, gone_);
+    flow_on_grid(m, tm_, gone_, flow_);
+    const FlowOnGrid& f = flow_;
     const terrain::Grid& g = tm_.bed;
     std::vector<Vec<3>> pos;
     std::vector<real> vol, speed, rho;
-    for (int j = 0; j < g.ny; ++j)
-      for (int i = 0; i < g.nx; ++i) {
+    for (int j = f.j0; j <= f.j1; ++j)  // raster order, as over the whole grid: the same sums in the same order
+      for (int i = f.i0; i <= f.i1; ++i) {
         const size_t c = static_cast<size_t>(j) * g.nx + i;
         if (f.depth[c] <= 0 || std::isnan(g.values[c])) continue;
         const double x = g.cx(i) - tm_.origin_x, y = g.cy(j) - tm_.origin_y;
@@ -201,6 +218,7 @@ class ScreeningWatch {
   const ScreeningSettings& settings_;
   const OutputSettings& out_;
   terrain::InundationGrid grid_;
+  FlowOnGrid flow_;
   std::vector<char> gone_;  // by particle id
   double gone_volume_ = 0;
   size_t gone_count_ = 0;
