@@ -86,6 +86,14 @@ std::optional<EnsembleSummary> summarise_ensemble(const RunStore& store, const s
   for (const auto& r : store.list_runs(sweep))
     if (r.status == "completed" && split_member_name(r.variant) && (fidelity.empty() || r.fidelity == fidelity))
       latest[r.variant] = r.id;
+  return summarise_ensemble_runs(store, sweep, latest);
+}
+
+std::optional<EnsembleSummary> summarise_ensemble_runs(const RunStore& store, const std::string& sweep,
+                                                       const std::map<std::string, int64_t>& runs) {
+  std::map<std::string, int64_t> latest;
+  for (const auto& [variant, id] : runs)
+    if (split_member_name(variant)) latest[variant] = id;
   if (latest.empty()) return std::nullopt;
   EnsembleSummary s;
   s.sweep = sweep;

@@ -66,34 +66,13 @@ void apply_fidelity(json& j, const Fidelity& fidelity) {
     for (auto it = preset["numerics"].begin(); it != preset["numerics"].end(); ++it) j["numerics"][it.key()] = it.value();
 }
 
-// Every layout with every member, member by member (a member's layouts finish together, so a partial ensemble
-// still compares layouts), named LAYOUT-eNNN. The members holding each parameter's smallest and largest value
-// are checked as scenes now (the scene's own ranges: a sampled friction angle of 95 degrees is refused before
+// Every layout with every member (ensemble_variants). The members holding each parameter's smallest and largest
+// value are checked as scenes now (the scene's own ranges: a sampled friction angle of 95 degrees is refused before
 // anything runs); checking every member would parse the DEM hundreds of times.
 std::vector<SweepVariant> expand_ensemble(const Sweep& sw, const Ensemble& e) {
   const auto members = ensemble_members(e);
-  const int digits = std::max<int>(3, static_cast<int>(std::to_string(members.size() - 1).size()));
-  std::vector<SweepVariant> out;
-  for (size_t m = 0; m < members.size(); ++m)
-    for (const auto& layout : sw.variants) {
-      SweepVariant v = layout;
-      std::string index = std::to_string(m);
-      v.name = layout.name + "-e" + std::string(digits - std::min<int>(digits, index.size()), '0') + index;
-      v.layout = layout.name;
-      v.member = static_cast<int>(m);
-      v.parameters = members[m];
-      out.push_back(std::move(v));
-    }
-  std::set<size_t> extremes;
-  for (size_t p = 0; p < e.parameters.size(); ++p) {
-    size_t lo = 0, hi = 0;
-    for (size_t m = 0; m < members.size(); ++m) {
-      if (members[m][p].value < members[lo][p].value) lo = m;
-      if (members[m][p].value > members[hi][p].value) hi = m;
-    }
-    extremes.insert(lo), extremes.insert(hi);
-  }
-  for (size_t m : extremes) {
+  std::vector<SweepVariant> out = ensemble_variants(sw.variants, e);
+  for (size_t m : extreme_members(members)) {
     const SweepVariant& v = out[m * sw.variants.size()];
     try {
       (void)parse_scene(resolve_variant(sw.base_json, v, sw.fidelity), sw.base_path.parent_path());
@@ -108,6 +87,41 @@ std::vector<SweepVariant> expand_ensemble(const Sweep& sw, const Ensemble& e) {
 }
 
 }  // namespace
+
+std::string member_variant_name(const std::string& layout, size_t member, size_t members) {
+  const size_t digits = std::max<size_t>(3, std::to_string(members > 0 ? members - 1 : 0).size());
+  const std::string index = std::to_string(member);
+  return layout + "-e" + std::string(digits - std::min(digits, index.size()), '0') + index;
+}
+
+std::vector<size_t> extreme_members(const std::vector<std::vector<ParameterValue>>& members) {
+  std::set<size_t> extremes;
+  const size_t params = members.empty() ? 0 : members.front().size();
+  for (size_t p = 0; p < params; ++p) {
+    size_t lo = 0, hi = 0;
+    for (size_t m = 0; m < members.size(); ++m) {
+      if (members[m][p].value < members[lo][p].value) lo = m;
+      if (members[m][p].value > members[hi][p].value) hi = m;
+    }
+    extremes.insert(lo), extremes.insert(hi);
+  }
+  return {extremes.begin(), extremes.end()};
+}
+
+std::vector<SweepVariant> ensemble_variants(const std::vector<SweepVariant>& layouts, const Ensemble& e) {
+  const auto members = ensemble_members(e);
+  std::vector<SweepVariant> out;
+  for (size_t m = 0; m < members.size(); ++m)
+    for (const auto& layout : layouts) {
+      SweepVariant v = layout;
+      v.name = member_variant_name(layout.name, m, members.size());
+      v.layout = layout.name;
+      v.member = static_cast<int>(m);
+      v.parameters = members[m];
+      out.push_back(std::move(v));
+    }
+  return out;
+}
 
 const std::vector<std::string>& fidelity_names() {
   static const std::vector<std::string> names = {"draft", "standard", "fine", "screening"};

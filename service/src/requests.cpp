@@ -291,12 +291,16 @@ void validate_resolved(const std::string& resolved, const std::string& path, con
 }
 
 // Resolves `base` with a layout at a fidelity (resolve_variant), checks it; the job spec.
+// `parameters`: an ensemble member's values; `check` false resolves without building the scene (the files are
+// still checked), the particles and cost left as given in `spec`.
 JobSpec make_job(const json& base, const std::string& path, const std::optional<std::vector<std::string>>& layout,
-                 const std::string& variant, const Fidelity& fidelity, const Limits& limits) {
+                 const std::string& variant, const Fidelity& fidelity, const Limits& limits,
+                 const std::vector<ParameterValue>& parameters = {}, bool check = true, JobSpec spec = {}) {
   const auto cands = candidates(base);
   SweepVariant v;
   v.name = variant;
   v.structures = layout ? *layout : cands;
+  v.parameters = parameters;
   std::string resolved;
   try {
     json r = json::parse(resolve_variant(base.dump(), v, fidelity));
@@ -310,8 +314,10 @@ JobSpec make_job(const json& base, const std::string& path, const std::optional<
   } catch (const json::exception& e) {
     throw ApiError(422, path, std::string("cannot apply the layout and fidelity: ") + e.what());
   }
-  JobSpec spec;
-  validate_resolved(resolved, path, limits, spec);
+  if (check)
+    validate_resolved(resolved, path, limits, spec);
+  else
+    check_contained(json::parse(resolved), path, limits);
   const json r = json::parse(resolved);
   spec.scene_json = resolved;
   spec.scene_name = r.value("name", std::string("scene"));
@@ -548,6 +554,49 @@ std::vector<SweepVariant> parse_variants(const json& vs, const std::vector<std::
   return variants;
 }
 
+// An ensemble sweep's jobs (docs/service.md, "Sweeps"): every layout at every member, member by member, named
+// LAYOUT-eNNN as `runout sweep` names them. Built as scenes, as the CLI checks them: every layout at the first
+// member, and the first layout at each member holding a parameter's smallest or largest value (a sampled value
+// outside the scene's own range is refused, naming the member); the other jobs take their layout's particles
+// and cost from the first member (a member that changes the release volume changes them: the estimate does
+// not follow). So a 64-member ensemble of 8 layouts costs 8 to 10 scene builds, not 512.
+void add_ensemble_jobs(NewSweep& out, const Base& b, const Fidelity& fidelity, const Limits& limits) {
+  Ensemble e;
+  try {
+    e = parse_ensemble(*out.ensemble_json, out.base_json);
+  } catch (const SceneError& err) {
+    throw ApiError(422, err.field, std::string(err.what()).substr(std::min(err.field.size() + 2, std::string(err.what()).size())));
+  }
+  const auto members = ensemble_members(e);
+  const size_t n = members.size() * out.variants.size();
+  if (n > kMaxVariants)
+    throw ApiError(422, "ensemble", std::to_string(members.size()) + " members x " + std::to_string(out.variants.size()) +
+                                        " layouts = " + std::to_string(n) + " jobs (accepted: at most " +
+                                        std::to_string(kMaxVariants) + " a sweep)");
+  const std::vector<size_t> extremes = extreme_members(members);
+  const std::vector<SweepVariant> all = ensemble_variants(out.variants, e);
+  std::vector<JobSpec> first(out.variants.size());  // each layout's job at the first member
+  for (size_t k = 0; k < all.size(); ++k) {
+    const SweepVariant& v = all[k];
+    const size_t layout = k % out.variants.size();
+    const bool check = v.member == 0 || (layout == 0 && std::count(extremes.begin(), extremes.end(), static_cast<size_t>(v.member)) > 0);
+    const std::string path = b.path.empty() ? "ensemble" : b.path;
+    JobSpec spec;
+    try {
+      spec = make_job(b.scene, path, v.structures, v.name, fidelity, limits, v.parameters, check,
+                      v.member == 0 ? JobSpec{} : first[layout]);
+    } catch (const ApiError& err) {
+      std::string values;
+      for (const auto& p : v.parameters) values += (values.empty() ? "" : ", ") + p.pointer + " = " + std::to_string(p.value);
+      throw ApiError(err.status, err.field, "variant '" + v.name + "' (" + values + "): " + err.what());
+    }
+    if (v.member == 0) first[layout] = spec;
+    spec.scene_id = b.scene_id;
+    spec.sweep = out.name;
+    out.jobs.push_back(std::move(spec));
+  }
+}
+
 }  // namespace
 
 NewSweep parse_sweep_request(const std::string& body, const Limits& limits, const JobQueue& queue,
@@ -555,7 +604,10 @@ NewSweep parse_sweep_request(const std::string& body, const Limits& limits, cons
   const json j = parse_body(body);
   // The envelope's fields are checked together (every invalid one is reported); each layout's scene after them.
   FieldErrors errors;
-  refuse_unknown(j, "", {"name", "base", "scene_id", "fidelity", "variants", "factorial", "idempotency_key"}, errors);
+  refuse_unknown(j, "", {"name", "base", "scene_id", "fidelity", "variants", "factorial", "ensemble", "idempotency_key"},
+                 errors);
+  if (j.contains("ensemble") && !j["ensemble"].is_object())
+    errors.add(ApiError(422, "ensemble", "must be an object {parameters, members, seed} (docs/scene-format.md, \"Ensembles\")"));
   errors.check([&] { body_key = parse_key(j); });
   NewSweep out;
   out.name = "sweep";
@@ -579,6 +631,13 @@ NewSweep parse_sweep_request(const std::string& body, const Limits& limits, cons
   errors.raise();
   const Base& b = *base;
   out.scene_id = b.scene_id;
+  out.base_json = b.scene.dump();
+  out.variants = variants;
+  if (j.contains("ensemble")) {
+    out.ensemble_json = j["ensemble"].dump();
+    add_ensemble_jobs(out, b, fidelity, limits);
+    return out;
+  }
   for (size_t k = 0; k < variants.size(); ++k) {
     const std::string path = b.path.empty() ? "variants[" + std::to_string(k) + "]" : b.path;
     JobSpec spec;
@@ -591,8 +650,6 @@ NewSweep parse_sweep_request(const std::string& body, const Limits& limits, cons
     spec.sweep = out.name;
     out.jobs.push_back(std::move(spec));
   }
-  out.base_json = b.scene.dump();
-  out.variants = variants;
   return out;
 }
 

@@ -82,7 +82,8 @@ struct NewSweep {
   // What a sweep file needs (a sweep handed to an MPI launcher, sweep_launcher.hpp): the base scene as the
   // jobs were resolved from it, and the layouts, one per job in order.
   std::string base_json;
-  std::vector<SweepVariant> variants;
+  std::vector<SweepVariant> variants;  // the layouts (an ensemble's jobs are every layout at every member)
+  std::optional<std::string> ensemble_json;  // the request's "ensemble", when it has one
 };
 
 // Bodies are JSON text; malformed JSON is a 400, everything else that is wrong a 422.

@@ -2,6 +2,7 @@
 // docs/service.md).
 #include "server_impl.hpp"
 
+#include "runout/scenarios/ensemble_summary.hpp"
 #include "runout/scenarios/report.hpp"
 
 namespace runout::service {
@@ -33,6 +34,17 @@ json sweep_summary(const SweepRow& s, const std::map<std::string, int64_t>& coun
 
 }  // namespace
 
+// An ensemble sweep's summary over its done jobs (scenarios/ensemble_summary.hpp: each layout's decision metrics
+// as p10/p50/p90 over the members with every layout done, and its share of first places); null for a sweep
+// whose variants are not ensemble members or with no done member yet.
+json Server::Impl::ensemble_of(const std::vector<Job>& jobs, const std::string& sweep) const {
+  std::map<std::string, int64_t> runs;
+  for (const auto& j : jobs)
+    if (j.status == "done" && j.run_id && split_member_name(j.variant)) runs[j.variant] = *j.run_id;
+  const auto summary = summarise_ensemble_runs(*store, sweep, runs);
+  return summary ? json::parse(ensemble_summary_json(*summary)) : json(nullptr);
+}
+
 void Server::Impl::routes_sweeps() {
   add("/sweeps", "POST", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
     only_params(req, {});
@@ -53,7 +65,7 @@ void Server::Impl::routes_sweeps() {
                                               budget_check(requested));
     if (created && launcher) {
       try {
-        launcher->launch({row.id, s.name, s.base_json, s.variants, s.fidelity, s.jobs.front().dp});
+        launcher->launch({row.id, s.name, s.base_json, s.variants, s.ensemble_json, s.fidelity, s.jobs.front().dp});
       } catch (const std::exception& e) {  // its jobs must not stay `running` for ever
         spdlog::error("sweep {}: could not launch: {}", row.id, e.what());
         for (const auto& j : queue->list(std::nullopt, row.id, 10000, 0))
@@ -117,6 +129,7 @@ void Server::Impl::routes_sweeps() {
     }
     out["progress"] = {{"fraction", jobs.empty() ? 1.0 : fraction / static_cast<double>(jobs.size())}};
     out["variants"] = variants;
+    out["ensemble"] = ensemble_of(jobs, row->name);
     out["links"]["compare"] =
         out["status"] == "done" && !jobs.empty() ? json(kPrefix + "/compare?sweep=" + m[1].str()) : json(nullptr);
     send_json(res, 200, out);

@@ -483,6 +483,7 @@ struct Server::Impl {
                      bool download);
   void routes_compare();
   json sweep_of(int64_t base_job, const std::vector<int64_t>& job_ids) const;
+  json ensemble_of(const std::vector<Job>& jobs, const std::string& sweep) const;
   void serve_web(const httplib::Request& req, httplib::Response& res) const;
   void dispatch(const httplib::Request& req, httplib::Response& res);
   void worker_loop(int index);

@@ -136,6 +136,7 @@ void SweepLauncher::launch(const LaunchedSweep& s) {
     for (const auto& v : s.variants) variants.push_back({{"name", v.name}, {"structures", v.structures}});
     json sweep = {{"name", s.name}, {"base", base_file.string()}, {"variants", variants}};
     if (!s.dp) sweep["fidelity"] = s.fidelity;
+    if (s.ensemble_json) sweep["ensemble"] = json::parse(*s.ensemble_json);
     std::ofstream(sweep_file) << sweep.dump(2);
   }
   const std::string cmd = command_for(sweep_file, s.dp);

@@ -29,7 +29,8 @@ struct LaunchedSweep {
   int64_t sweep_id = 0;
   std::string name;       // the sweep's name (runs.sweep in the store)
   std::string base_json;  // the base scene the jobs were resolved from
-  std::vector<SweepVariant> variants;
+  std::vector<SweepVariant> variants;  // the layouts
+  std::optional<std::string> ensemble_json;  // the sweep's ensemble: the file carries it, mpi_sweep expands it
   std::string fidelity = "standard";  // draft | standard | fine | custom
   std::optional<double> dp;           // custom
 };

@@ -359,6 +359,56 @@ TEST_F(Api, SweepsAreListedAndFollowedToTheirComparison) {
   expect_problem(get("/sweeps/999/report.html"), 404, "not-found", "/api/v1/sweeps/999/report.html", "id");
 }
 
+// An ensemble sweep (issue 45): every layout at every member, named as `runout sweep` names them, each job's
+// scene carrying its member's value; GET /sweeps/{id} summarises the members once their jobs are done. A bad
+// ensemble is refused with its field named, before anything is queued.
+TEST_F(Api, AnEnsembleSweepRunsEveryLayoutAtEveryMemberAndIsSummarised) {
+  start({"--workers", "1", "--threads-per-job", "1"});
+  const Reply scene = post("/scenes", tiny_scene("base"));
+  ASSERT_EQ(scene.status, 201) << scene.text;
+  const json layouts = json::array({{{"name", "A"}}, {{"name", "B"}}});
+  const json ensemble = {{"parameters", json::array({{{"pointer", "/materials/0/viscosity"}, {"values", {0.001, 0.002}}}})}};
+  expect_problem(post("/sweeps", {{"scene_id", scene.body.at("id")}, {"variants", layouts},
+                                  {"ensemble", {{"parameters", json::array({{{"pointer", "/nothing"}, {"values", {1}}}})}}}}),
+                 422, "invalid-field", "/api/v1/sweeps", "ensemble.parameters[0].pointer");
+  expect_problem(post("/sweeps", {{"scene_id", scene.body.at("id")}, {"variants", layouts}, {"ensemble", 3}}), 422,
+                 "invalid-field", "/api/v1/sweeps", "ensemble");
+  // A viscosity out of the material's range at an extreme member: refused, naming the member.
+  const Reply bad = post("/sweeps", {{"scene_id", scene.body.at("id")}, {"variants", layouts},
+                                     {"ensemble", {{"parameters", json::array({{{"pointer", "/materials/0/viscosity"},
+                                                                                {"values", {0.001, -1.0}}}})}}}});
+  EXPECT_EQ(bad.status, 422) << bad.text;
+  EXPECT_NE(first_error(bad.body).at("message").get<std::string>().find("A-e001"), std::string::npos) << bad.text;
+  EXPECT_EQ(get("/sweeps").body.at("sweeps").size(), 0u) << "nothing queued by a refused ensemble";
+
+  const Reply sweep = post("/sweeps", {{"name", "visc"}, {"scene_id", scene.body.at("id")}, {"variants", layouts},
+                                       {"ensemble", ensemble}});
+  ASSERT_EQ(sweep.status, 201) << sweep.text;
+  const json& jobs = sweep.body.at("jobs");
+  ASSERT_EQ(jobs.size(), 4u);
+  const std::vector<std::string> names = {"A-e000", "B-e000", "A-e001", "B-e001"};
+  for (size_t k = 0; k < 4; ++k) {
+    EXPECT_EQ(jobs[k].at("variant"), names[k]);
+    const Reply job = get("/jobs/" + std::to_string(jobs[k].at("id").get<int64_t>()));
+    ASSERT_EQ(job.status, 200);
+    EXPECT_DOUBLE_EQ(job.body.at("scene").at("materials")[0].at("viscosity").get<double>(), k < 2 ? 0.001 : 0.002)
+        << names[k];
+  }
+  json detail;
+  for (int k = 0; k < 600; ++k) {  // at most 60 s
+    detail = get("/sweeps/" + std::to_string(sweep.body.at("id").get<int64_t>())).body;
+    if (detail.value("status", "") != "running") break;
+    std::this_thread::sleep_for(100ms);
+  }
+  ASSERT_EQ(detail.value("status", ""), "done") << detail.dump();
+  const json& e = detail.at("ensemble");
+  ASSERT_TRUE(e.is_object()) << detail.dump();
+  EXPECT_EQ(e.at("layouts"), json::array({"A", "B"}));
+  EXPECT_EQ(e.at("members"), 2);
+  EXPECT_EQ(e.at("incomplete"), 0);
+  EXPECT_TRUE(e.at("layouts_detail").contains("A"));
+}
+
 // A sweep whose jobs have not run has no report yet: 409.
 TEST_F(Api, ASweepsReportWaitsForADoneJob) {
   start({"--workers", "0"});

@@ -52,6 +52,10 @@ struct EnsembleSummary {
 // completed run named as an ensemble member.
 std::optional<EnsembleSummary> summarise_ensemble(const RunStore& store, const std::string& sweep,
                                                   const std::string& fidelity = "");
+// The same from the runs given, variant -> completed run id (the service's sweep: its own jobs' runs, not every
+// stored run of a sweep name); variants that are not member names are left out.
+std::optional<EnsembleSummary> summarise_ensemble_runs(const RunStore& store, const std::string& sweep,
+                                                       const std::map<std::string, int64_t>& runs);
 
 // The summary as JSON text ({sweep, layouts, members, incomplete, ranking_metric, ranked_members, layouts_detail:
 // {LAYOUT: {first_share, metrics: {METRIC: {p10, p50, p90, count, never}}}}}).

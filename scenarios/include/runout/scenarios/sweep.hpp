@@ -67,6 +67,14 @@ Ensemble parse_ensemble(const std::string& ensemble_json, const std::string& bas
 double parameter_quantile(const EnsembleParameter& p, double u);
 // The members' values, grid-major: member k = grid point k / samples, sample k % samples.
 std::vector<std::vector<ParameterValue>> ensemble_members(const Ensemble& e);
+// An ensemble member's variant name: LAYOUT-eNNN, the index zero-padded to at least 3 digits and to the width of
+// the last member's (members - 1).
+std::string member_variant_name(const std::string& layout, size_t member, size_t members);
+// Every layout with every member, member by member (a member's layouts finish together, so a partial ensemble
+// still compares layouts), named member_variant_name; each carries its member's values. Nothing is checked.
+std::vector<SweepVariant> ensemble_variants(const std::vector<SweepVariant>& layouts, const Ensemble& e);
+// The members holding each parameter's smallest and largest value, ascending: those a sweep checks as scenes.
+std::vector<size_t> extreme_members(const std::vector<std::vector<ParameterValue>>& members);
 // n points of a d-dimensional Latin hypercube in (0, 1): in each dimension, one point in each of the n strata
 // [k/n, (k+1)/n). From std::mt19937_64, with the draws converted by hand so every platform gives the same points.
 std::vector<std::vector<double>> latin_hypercube(size_t n, size_t d, uint64_t seed);
