@@ -412,6 +412,14 @@ json run_metrics(const Scene& scene, const ScreeningSettings& s, const da::Model
                     {"density_kg_m3", s.density},
                     {"particles", particles},
                     {"release_volume_m3", released}};
+  if (s.earth_pressure_rule == "savage_hutter") {
+    const auto& c = m.config();
+    const auto e = da::savage_hutter_coefficients(c.internal_friction_angle, c.bed_friction_angle);
+    j["screening"]["earth_pressure_rule"] = s.earth_pressure_rule;
+    j["screening"]["internal_friction_angle_deg"] = c.internal_friction_angle;
+    j["screening"]["bed_friction_angle_deg"] = c.bed_friction_angle;
+    j["screening"]["k_x"] = {{"active", e.kx[0]}, {"passive", e.kx[1]}};
+  }
   if (inflow)  // the hydrograph's integral over the run, and what entered of it (less than a row behind)
     j["screening"]["inflow"] = {{"volume_due_m3", inflow->due()}, {"volume_entered_m3", inflow->entered()}};
   return j;

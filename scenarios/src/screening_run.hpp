@@ -24,6 +24,8 @@ struct ScreeningSettings {
   real reference_spacing = 0.5; // [m] the spacing the ratio holds at (the validated dam break's coarsest)
   std::string kernel_rule = "sqrt";  // "sqrt": h_k0 = ratio spacing (reference / spacing)^1/2 below it; "fixed"
   real earth_pressure = 1.0;
+  std::string earth_pressure_rule = "isotropic";  // or "savage_hutter" (engine Config::savage_hutter)
+  real internal_friction_angle = 0;  // [deg] phi, with savage_hutter; delta is atan of the friction law's mu
   real cfl = 0.2;
   real dt_max = 0.1;            // [s]
   real output_interval = 0.1;   // [s] between samples of the inundation grid and the rest test

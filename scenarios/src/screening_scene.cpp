@@ -49,6 +49,28 @@ void read_friction(const Fields& f, ScreeningSettings& s, real gravity) {
   s.friction_source = "screening.friction";
 }
 
+// screening.earth_pressure_rule: "isotropic" (k = earth_pressure) or "savage_hutter" (active and passive
+// coefficients from internal_friction_angle, required then, and the bed's delta = atan mu of the friction law).
+void read_earth_pressure_rule(const Fields& f, ScreeningSettings& s) {
+  s.earth_pressure_rule = f.string_or("earth_pressure_rule", "isotropic", {"isotropic", "savage_hutter"});
+  if (s.earth_pressure_rule != "savage_hutter") {
+    if (f.has("internal_friction_angle"))
+      throw SceneError("screening.internal_friction_angle", "is used with earth_pressure_rule \"savage_hutter\" only");
+    return;
+  }
+  if (!f.has("internal_friction_angle"))
+    throw SceneError("screening.internal_friction_angle",
+                     "required with earth_pressure_rule \"savage_hutter\" (the material's internal friction angle, deg)");
+  const real delta = std::atan(s.friction_parameters.at("mu")) * 180 / kPi;
+  char lo[32];
+  std::snprintf(lo, sizeof lo, "%.4g", delta);
+  s.internal_friction_angle = f.number_or("internal_friction_angle", 0.0, 0.0, 90.0, false, true);
+  if (s.internal_friction_angle < delta)
+    throw SceneError("screening.internal_friction_angle",
+                     "must be at least the bed friction angle atan(mu) = " + std::string(lo) +
+                         " deg (accepted range [" + lo + ", 90))");
+}
+
 }  // namespace
 
 const std::vector<std::string>& scene_model_names() {
@@ -65,6 +87,11 @@ depth_averaged::Config ScreeningSettings::config(real gravity) const {
   depth_averaged::Config c;
   c.gravity = gravity;
   c.earth_pressure = earth_pressure;
+  c.savage_hutter = earth_pressure_rule == "savage_hutter";
+  if (c.savage_hutter) {
+    c.internal_friction_angle = internal_friction_angle;
+    c.bed_friction_angle = std::atan(friction_parameters.at("mu")) * 180 / kPi;
+  }
   c.spacing = spacing;
   c.smoothing_ratio = kernel_ratio();
   c.cfl = cfl;
@@ -77,8 +104,8 @@ depth_averaged::Config ScreeningSettings::config(real gravity) const {
 
 ScreeningSettings screening_settings(const json& j, const Scene& scene) {
   Fields f(j.contains("screening") ? j.at("screening") : json::object(), "screening",
-           {"spacing", "smoothing_ratio", "reference_spacing", "kernel_rule", "earth_pressure", "cfl", "dt_max",
-            "output_interval", "friction", "curvature"});
+           {"spacing", "smoothing_ratio", "reference_spacing", "kernel_rule", "earth_pressure", "earth_pressure_rule",
+            "internal_friction_angle", "cfl", "dt_max", "output_interval", "friction", "curvature"});
   ScreeningSettings s;
   s.spacing = f.number_or("spacing", scene.dp, 1e-3, 100.0);
   const auto& engine = depth_averaged::config_parameters();  // the engine's declared ranges and defaults
@@ -95,6 +122,7 @@ ScreeningSettings screening_settings(const json& j, const Scene& scene) {
   read_friction(f, s, gravity);
   s.release_material = Fields(j.at("release"), "release", {}, true).string("material");
   material_friction(scene, s.release_material, s);
+  read_earth_pressure_rule(f, s);
   return s;
 }
 

@@ -58,6 +58,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "runout/engine/depth_averaged.hpp"
 #include "runout/scenarios/run.hpp"
 #include "runout/scenarios/scene.hpp"
 #include "runout/scenarios/store.hpp"
@@ -403,6 +404,40 @@ TEST(ScreeningRun, RefusesABadScreeningFieldNamingIt) {
   s = channel_scene(40.0, 10, 4, true);
   s["model"] = "sph2d";
   EXPECT_EQ(refused(s).rfind("model | ", 0), 0u) << refused(s);
+  // Savage-Hutter earth pressure: its internal friction angle required, and not under the bed's atan(mu).
+  s = channel_scene(40.0, 10, 4, true);
+  s["screening"]["earth_pressure_rule"] = "savage_hutter";
+  EXPECT_EQ(refused(s).rfind("screening.internal_friction_angle | ", 0), 0u) << refused(s);
+  s["screening"]["earth_pressure_rule"] = "anisotropic";
+  EXPECT_EQ(refused(s).rfind("screening.earth_pressure_rule | ", 0), 0u) << refused(s);
+  s["screening"]["earth_pressure_rule"] = "savage_hutter";
+  s["screening"]["friction"] = {{"law", "coulomb"}, {"mu", 0.5}};
+  s["screening"]["internal_friction_angle"] = 20;  // atan 0.5 = 26.6 deg
+  EXPECT_NE(refused(s).find("accepted range [26.57, 90)"), std::string::npos) << refused(s);
+  s["screening"]["internal_friction_angle"] = 30;
+  EXPECT_EQ(refused(s), "accepted");
+  s["screening"].erase("earth_pressure_rule");
+  EXPECT_EQ(refused(s).rfind("screening.internal_friction_angle | ", 0), 0u) << refused(s);
+}
+
+// The rule reaches the model and the record: a run with it completes and metrics.json carries the coefficients.
+TEST(ScreeningRun, SavageHutterEarthPressureIsRunAndRecorded) {
+  const fs::path dir = fresh_dir("earth");
+  write_dem(dir / "channel.asc", kChLength, kChWidth, 0.5, channel);
+  json scene = channel_scene(40.0, 10, 4, true);
+  scene["duration"] = 5.0;
+  scene["screening"]["friction"] = {{"law", "coulomb"}, {"mu", 0.5}};
+  scene["screening"]["earth_pressure_rule"] = "savage_hutter";
+  scene["screening"]["internal_friction_angle"] = 30;
+  const json m = run_in(dir, scene);
+  EXPECT_EQ(m["status"], "completed");
+  const json& sc = m["screening"];
+  EXPECT_EQ(sc["earth_pressure_rule"], "savage_hutter");
+  EXPECT_NEAR(sc["bed_friction_angle_deg"].get<double>(), std::atan(0.5) * 180 / M_PI, 1e-12);
+  const auto e = depth_averaged::savage_hutter_coefficients(30, std::atan(0.5) * 180 / M_PI);
+  EXPECT_DOUBLE_EQ(sc["k_x"]["active"].get<double>(), e.kx[0]);
+  EXPECT_LT(e.kx[0], e.kx[1]);  // delta < phi: active under passive
+  EXPECT_LE(std::abs(m["mass"]["relative_error"].get<double>()), 1e-12);
 }
 
 TEST(ScreeningRun, FidelityScreeningSelectsTheModelAndIsRecorded) {

@@ -4,6 +4,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -18,6 +19,10 @@ namespace runout::depth_averaged {
 struct Model::Impl {
   detail::PlanCells cells;
   std::vector<real> gx, gy;  // G_i = sum_j V_j grad W_ij (plan), from the last pass
+  // With Savage-Hutter earth pressure: sum_j V_j (u_j - u_i) (x) grad W_ij (plan, row-major xx xy yx yy), the
+  // velocity gradient up to a positive factor (only its signs along and across the flow are used).
+  std::vector<real> lxx, lxy, lyx, lyy;
+  EarthPressureCoefficients earth{};
   // Per-step scratch: acceleration without friction, bed samples, friction inputs and output.
   std::vector<real> ax, ay, az, normal_stress, speed, tau;
   std::vector<BedSample> bed;
@@ -35,9 +40,9 @@ void permute(std::vector<T>& v, const std::vector<uint32_t>& order, std::vector<
 // The volume density in plan, rho_i = sum_j V_j W(r_ij, h_k,i), and its plan gradient G_i = sum_j V_j grad_i
 // W(r_ij, h_k,i): a gather with the particle's own kernel (self included in rho, not in G), over the cells its
 // support reaches. One kernel per particle, so a particle with a wide kernel costs more and the rest nothing.
-template <class K>
+template <class K, bool kStrain>
 void density_pass(const detail::PlanCells& cells, const Particles& p, std::vector<real>& rho, std::vector<real>& gx,
-                  std::vector<real>& gy) {
+                  std::vector<real>& gy, const std::array<std::vector<real>*, 4>& strain) {
   const size_t ncell = cells.keys.size();
 #pragma omp parallel
   {
@@ -55,7 +60,7 @@ void density_pass(const detail::PlanCells& cells, const Particles& p, std::vecto
           reach_for = cells.reach(support, 0) * cells.cell[0];
           reach_for = std::min(reach_for, cells.reach(support, 1) * cells.cell[1]);
         }
-        real s = 0, sx = 0, sy = 0;
+        real s = 0, sx = 0, sy = 0, l[4] = {0, 0, 0, 0};
         for (const auto& r : ranges)
           for (uint32_t j = r.begin; j < r.end; ++j) {
             const real dx = p.x[i] - p.x[j] - r.sx, dy = p.y[i] - p.y[j] - r.sy;
@@ -67,11 +72,17 @@ void density_pass(const detail::PlanCells& cells, const Particles& p, std::vecto
               const real f = p.volume[j] * kernel.grad_factor(rr);
               sx += f * dx;
               sy += f * dy;
+              if constexpr (kStrain) {
+                const real dux = p.ux[j] - p.ux[i], duy = p.uy[j] - p.uy[i];
+                l[0] += dux * f * dx, l[1] += dux * f * dy, l[2] += duy * f * dx, l[3] += duy * f * dy;
+              }
             }
           }
         rho[i] = s;
         gx[i] = sx;
         gy[i] = sy;
+        if constexpr (kStrain)
+          for (int q = 0; q < 4; ++q) (*strain[q])[i] = l[q];
       }
     }
   }
@@ -97,6 +108,24 @@ const std::vector<ParameterSpec>& config_parameters() {
   return specs;
 }
 
+EarthPressureCoefficients savage_hutter_coefficients(real phi_deg, real delta_deg) {
+  if (!(delta_deg >= 0 && delta_deg <= phi_deg && phi_deg < 90))
+    throw std::invalid_argument("depth_averaged: Savage-Hutter earth pressure needs 0 <= bed_friction_angle <= "
+                                "internal_friction_angle < 90 deg");
+  const real phi = phi_deg * kPi / 180, delta = delta_deg * kPi / 180;
+  const real cos2phi = std::cos(phi) * std::cos(phi), tan2delta = std::tan(delta) * std::tan(delta);
+  const real root1 = std::sqrt(std::max<real>(0, 1 - cos2phi / (std::cos(delta) * std::cos(delta))));
+  EarthPressureCoefficients e{};
+  e.kx[0] = 2 / cos2phi * (1 - root1) - 1;
+  e.kx[1] = 2 / cos2phi * (1 + root1) - 1;
+  for (int a = 0; a < 2; ++a) {
+    const real kx = e.kx[a], root2 = std::sqrt((1 - kx) * (1 - kx) + 4 * tan2delta);
+    e.ky[a][0] = 0.5 * (kx + 1 - root2);
+    e.ky[a][1] = 0.5 * (kx + 1 + root2);
+  }
+  return e;
+}
+
 void Particles::add(real px, real py, real vol) {
   x.push_back(px), y.push_back(py), volume.push_back(vol);
   ux.push_back(0), uy.push_back(0), uz.push_back(0), h.push_back(0), smoothing.push_back(0);
@@ -113,6 +142,8 @@ Model::Model(const Config& config, Bed bed, Particles particles)
   for (int d = 0; d < 2; ++d)
     if (config_.periodic[d] && !(config_.domain_max[d] > config_.domain_min[d]))
       throw std::invalid_argument("depth_averaged: a periodic axis needs domain_max > domain_min");
+  if (config_.savage_hutter)
+    impl_->earth = savage_hutter_coefficients(config_.internal_friction_angle, config_.bed_friction_angle);
   impl_->cells.configure(2.0 * h_kernel_, config_);
   const size_t n = p_.size();
   p_.h.resize(n), p_.ux.resize(n), p_.uy.resize(n), p_.uz.resize(n);
@@ -169,7 +200,13 @@ void Model::refresh() {
   permute(p_.id, I.cells.order, ibuf);
   I.gx.resize(n), I.gy.resize(n), I.bed.resize(n);
   with_kernel<2>(config_.kernel, h_kernel_, [&](const auto& k) {
-    density_pass<std::decay_t<decltype(k)>>(I.cells, p_, p_.h, I.gx, I.gy);
+    using K = std::decay_t<decltype(k)>;
+    if (config_.savage_hutter) {
+      I.lxx.resize(n), I.lxy.resize(n), I.lyx.resize(n), I.lyy.resize(n);
+      density_pass<K, true>(I.cells, p_, p_.h, I.gx, I.gy, {&I.lxx, &I.lxy, &I.lyx, &I.lyy});
+    } else {
+      density_pass<K, false>(I.cells, p_, p_.h, I.gx, I.gy, {});
+    }
   });
   real hk_max = h_kernel_;
 #pragma omp parallel for schedule(static) reduction(max : hk_max)
@@ -231,16 +268,37 @@ real Model::accelerations(real t_limit) {
     // Gravity minus its normal part: -g cos^2 (z_x, z_y, |grad z|^2).
     const Vec3 gt = -g * c * c * Vec3(s.grad.x(), s.grad.y(), s.grad.squaredNorm());
     // -k g_n grad_s h with g_n = g cos and the plan gradient of h = cos * (plan volume density).
-    const Vec3 a = gt - k * g * c * c * lift(Vec2(I.gx[i], I.gy[i]), s);
+    real k_max = k;
+    Vec3 a;
+    if (config_.savage_hutter)
+      a = gt - g * c * c * lift(savage_hutter_gradient(i, k_max), s);
+    else
+      a = gt - k * g * c * c * lift(Vec2(I.gx[i], I.gy[i]), s);
     I.ax[i] = a.x(), I.ay[i] = a.y(), I.az[i] = a.z();
     const real u = std::sqrt(p_.ux[i] * p_.ux[i] + p_.uy[i] * p_.uy[i] + p_.uz[i] * p_.uz[i]);
-    wave = std::max(wave, std::sqrt(k * g * c * p_.h[i]) + u);
+    wave = std::max(wave, std::sqrt(k_max * g * c * p_.h[i]) + u);
     acc = std::max(acc, a.norm());
   }
   real dt = config_.dt_max;
   if (wave > 0) dt = std::min(dt, config_.cfl * h_kernel_ / wave);
   if (acc > 0) dt = std::min(dt, config_.cfl * std::sqrt(h_kernel_ / acc));
   return std::min(dt, t_limit - time_);
+}
+
+// The plan gradient G_i weighted by Savage and Hutter's coefficients in the flow's frame: e1 along the plan
+// velocity (the x axis at rest), e2 across; k_x active where the flow stretches along e1, k_y by the sign of
+// the strain along e2. k_max: the larger coefficient (the wave speed's).
+Vec2 Model::savage_hutter_gradient(size_t i, real& k_max) const {
+  const auto& I = *impl_;
+  const Vec2 G(I.gx[i], I.gy[i]), u(p_.ux[i], p_.uy[i]);
+  const real speed = u.norm();
+  const Vec2 e1 = speed > 0 ? Vec2(u / speed) : Vec2(1, 0), e2(-e1.y(), e1.x());
+  Mat2 L;
+  L << I.lxx[i], I.lxy[i], I.lyx[i], I.lyy[i];
+  const bool x_passive = e1.dot(L * e1) < 0, y_passive = e2.dot(L * e2) < 0;
+  const real kx = I.earth.kx[x_passive], ky = I.earth.ky[x_passive][y_passive];
+  k_max = std::max(kx, ky);
+  return e1 * (kx * e1.dot(G)) + e2 * (ky * e2.dot(G));
 }
 
 // u* = u + dt a; the basal resistance decelerates |u*| by dt tau_b / (rho h) and stops a particle whose friction

@@ -89,6 +89,12 @@ std::unique_ptr<BasalFriction> make_friction(const std::string& name, const Para
 struct Config {
   real gravity = 9.81;                     // [m/s^2]
   real earth_pressure = 1.0;               // k: pressure term -k g_n grad h (1: hydrostatic, isotropic)
+  // Savage & Hutter's (1989) earth-pressure coefficients in place of k: along the flow k_x from the internal
+  // friction angle phi and the bed's delta, active where the flow stretches (du_s/ds >= 0), passive where it
+  // is compressed; across it k_y from k_x and the sign of the lateral strain (savage_hutter_coefficients).
+  bool savage_hutter = false;
+  real internal_friction_angle = 30;      // phi [deg]
+  real bed_friction_angle = 20;           // delta [deg], 0 <= delta <= phi
   real spacing = 1.0;                      // initial plan spacing of the particles [m]
   real smoothing_ratio = 1.5;              // kernel smoothing length / spacing (support 2 h_k)
   // Adaptive smoothing length: h_k,i = smoothing_ratio sqrt(V_i / rho_i) (rho_i the volume per plan area),
@@ -107,6 +113,16 @@ struct Config {
   std::array<bool, 2> periodic{false, false};
   Vec2 domain_min = Vec2::Zero(), domain_max = Vec2::Zero();
 };
+
+// Savage & Hutter's (1989) coefficients for phi and delta [deg] (as AvaFrame's ana1Tests/simiSolTest.py
+// defineEarthPressCoeff writes them): k_x = 2 / cos^2 phi (1 -+ sqrt(1 - cos^2 phi / cos^2 delta)) - 1 (active,
+// passive), k_y = (k_x + 1 -+ sqrt((1 - k_x)^2 + 4 tan^2 delta)) / 2 (active, passive) for each k_x. Throws
+// std::invalid_argument unless 0 <= delta <= phi < 90.
+struct EarthPressureCoefficients {
+  real kx[2];     // [0] active, [1] passive
+  real ky[2][2];  // [k_x passive][k_y passive]
+};
+EarthPressureCoefficients savage_hutter_coefficients(real phi_deg, real delta_deg);
 
 // The model's own numbers, declared once (as every engine model declares its parameters) for the scene step.
 const std::vector<ParameterSpec>& config_parameters();
@@ -157,6 +173,7 @@ class Model {
   real step_to(real t_limit);
   void refresh();
   real accelerations(real t_limit);
+  Vec2 savage_hutter_gradient(size_t i, real& k_max) const;
   void apply_friction_and_move(real dt);
   void check_finite() const;
   Config config_;
