@@ -100,8 +100,10 @@ class Similarity {
   Similarity(const SimiSetup& s, real dtau = 1e-4, real tau0 = 0.001) : s_(s) {
     a_ = std::sin(s.zeta), c_ = std::cos(s.zeta) * std::tan(s.delta);
     // The pile stretches along and across from rest (g', f' >= 0, checked in the tests): both coefficients active.
-    const auto e = da::savage_hutter_coefficients(s.phi_deg, s.delta * 180 / runout::kPi);
-    kx_ = s.earth ? e.kx[0] : 1.0, ky_ = s.earth ? e.ky[0][0] : 1.0;
+    if (s.earth) {
+      const auto e = da::savage_hutter_coefficients(s.phi_deg, s.delta * 180 / runout::kPi);
+      kx_ = e.kx[0], ky_ = e.ky[0][0];
+    }
     b_ = s.h0 / s.lx * std::cos(s.zeta) * kx_;
     d_ = (s.h0 / s.ly) * (s.h0 / s.ly) / (s.h0 / s.lx) * std::cos(s.zeta) * ky_;
     T_ = std::sqrt(s.lx / kG);
