@@ -61,6 +61,9 @@ void read_earth_pressure_rule(const Fields& f, ScreeningSettings& s) {
   if (!f.has("internal_friction_angle"))
     throw SceneError("screening.internal_friction_angle",
                      "required with earth_pressure_rule \"savage_hutter\" (the material's internal friction angle, deg)");
+  if (!s.friction_parameters.count("mu"))
+    throw SceneError("screening.earth_pressure_rule",
+                     "\"savage_hutter\" needs a friction law with a Coulomb part mu (coulomb, voellmy)");
   const real delta = std::atan(s.friction_parameters.at("mu")) * 180 / kPi;
   char lo[32];
   std::snprintf(lo, sizeof lo, "%.4g", delta);

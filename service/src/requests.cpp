@@ -565,7 +565,8 @@ void add_ensemble_jobs(NewSweep& out, const Base& b, const Fidelity& fidelity, c
   try {
     e = parse_ensemble(*out.ensemble_json, out.base_json);
   } catch (const SceneError& err) {
-    throw ApiError(422, err.field, std::string(err.what()).substr(std::min(err.field.size() + 2, std::string(err.what()).size())));
+    const std::string what = err.what();  // "<field>: <message>"
+    throw ApiError(422, err.field, what.substr(std::min(err.field.size() + 2, what.size())));
   }
   const auto members = ensemble_members(e);
   const size_t n = members.size() * out.variants.size();
@@ -579,7 +580,8 @@ void add_ensemble_jobs(NewSweep& out, const Base& b, const Fidelity& fidelity, c
   for (size_t k = 0; k < all.size(); ++k) {
     const SweepVariant& v = all[k];
     const size_t layout = k % out.variants.size();
-    const bool check = v.member == 0 || (layout == 0 && std::count(extremes.begin(), extremes.end(), static_cast<size_t>(v.member)) > 0);
+    const bool extreme = std::count(extremes.begin(), extremes.end(), static_cast<size_t>(v.member)) > 0;
+    const bool check = v.member == 0 || (layout == 0 && extreme);
     const std::string path = b.path.empty() ? "ensemble" : b.path;
     JobSpec spec;
     try {
@@ -587,7 +589,8 @@ void add_ensemble_jobs(NewSweep& out, const Base& b, const Fidelity& fidelity, c
                       v.member == 0 ? JobSpec{} : first[layout]);
     } catch (const ApiError& err) {
       std::string values;
-      for (const auto& p : v.parameters) values += (values.empty() ? "" : ", ") + p.pointer + " = " + std::to_string(p.value);
+      for (const auto& p : v.parameters)
+        values += (values.empty() ? "" : ", ") + p.pointer + " = " + std::to_string(p.value);
       throw ApiError(err.status, err.field, "variant '" + v.name + "' (" + values + "): " + err.what());
     }
     if (v.member == 0) first[layout] = spec;
@@ -607,7 +610,8 @@ NewSweep parse_sweep_request(const std::string& body, const Limits& limits, cons
   refuse_unknown(j, "", {"name", "base", "scene_id", "fidelity", "variants", "factorial", "ensemble", "idempotency_key"},
                  errors);
   if (j.contains("ensemble") && !j["ensemble"].is_object())
-    errors.add(ApiError(422, "ensemble", "must be an object {parameters, members, seed} (docs/scene-format.md, \"Ensembles\")"));
+    errors.add(ApiError(422, "ensemble",
+                        "must be an object {parameters, members, seed} (docs/scene-format.md, \"Ensembles\")"));
   errors.check([&] { body_key = parse_key(j); });
   NewSweep out;
   out.name = "sweep";
