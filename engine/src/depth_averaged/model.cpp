@@ -261,24 +261,34 @@ real Model::accelerations(real t_limit) {
   I.ax.resize(n), I.ay.resize(n), I.az.resize(n);
   const real g = config_.gravity, k = config_.earth_pressure;
   real wave = 0, acc = 0;
+  // Two instantiations: the isotropic loop stays the statements it was (its rounding, and so its runs, unchanged).
+  auto pass = [&](auto savage_hutter) {
 #pragma omp parallel for schedule(static) reduction(max : wave, acc)
-  for (size_t i = 0; i < n; ++i) {
-    const BedSample& s = I.bed[i];
-    const real c = s.cos_slope();
-    // Gravity minus its normal part: -g cos^2 (z_x, z_y, |grad z|^2).
-    const Vec3 gt = -g * c * c * Vec3(s.grad.x(), s.grad.y(), s.grad.squaredNorm());
-    // -k g_n grad_s h with g_n = g cos and the plan gradient of h = cos * (plan volume density).
-    real k_max = k;
-    Vec3 a;
-    if (config_.savage_hutter)
-      a = gt - g * c * c * lift(savage_hutter_gradient(i, k_max), s);
-    else
-      a = gt - k * g * c * c * lift(Vec2(I.gx[i], I.gy[i]), s);
-    I.ax[i] = a.x(), I.ay[i] = a.y(), I.az[i] = a.z();
-    const real u = std::sqrt(p_.ux[i] * p_.ux[i] + p_.uy[i] * p_.uy[i] + p_.uz[i] * p_.uz[i]);
-    wave = std::max(wave, std::sqrt(k_max * g * c * p_.h[i]) + u);
-    acc = std::max(acc, a.norm());
-  }
+    for (size_t i = 0; i < n; ++i) {
+      const BedSample& s = I.bed[i];
+      const real c = s.cos_slope();
+      // Gravity minus its normal part: -g cos^2 (z_x, z_y, |grad z|^2).
+      const Vec3 gt = -g * c * c * Vec3(s.grad.x(), s.grad.y(), s.grad.squaredNorm());
+      const real u = std::sqrt(p_.ux[i] * p_.ux[i] + p_.uy[i] * p_.uy[i] + p_.uz[i] * p_.uz[i]);
+      if constexpr (decltype(savage_hutter)::value) {
+        real k_max = 0;
+        const Vec3 a = gt - g * c * c * lift(savage_hutter_gradient(i, k_max), s);
+        I.ax[i] = a.x(), I.ay[i] = a.y(), I.az[i] = a.z();
+        wave = std::max(wave, std::sqrt(k_max * g * c * p_.h[i]) + u);
+        acc = std::max(acc, a.norm());
+      } else {
+        // -k g_n grad_s h with g_n = g cos and the plan gradient of h = cos * (plan volume density).
+        const Vec3 a = gt - k * g * c * c * lift(Vec2(I.gx[i], I.gy[i]), s);
+        I.ax[i] = a.x(), I.ay[i] = a.y(), I.az[i] = a.z();
+        wave = std::max(wave, std::sqrt(k * g * c * p_.h[i]) + u);
+        acc = std::max(acc, a.norm());
+      }
+    }
+  };
+  if (config_.savage_hutter)
+    pass(std::true_type{});
+  else
+    pass(std::false_type{});
   real dt = config_.dt_max;
   if (wave > 0) dt = std::min(dt, config_.cfl * h_kernel_ / wave);
   if (acc > 0) dt = std::min(dt, config_.cfl * std::sqrt(h_kernel_ / acc));
