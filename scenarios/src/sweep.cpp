@@ -71,7 +71,7 @@ void apply_fidelity(json& j, const Fidelity& fidelity) {
 // anything runs); checking every member would parse the DEM hundreds of times.
 std::vector<SweepVariant> expand_ensemble(const Sweep& sw, const Ensemble& e) {
   const auto members = ensemble_members(e);
-  std::vector<SweepVariant> out = ensemble_variants(sw.variants, e);
+  std::vector<SweepVariant> out = ensemble_variants(sw.variants, members);
   for (size_t m : extreme_members(members)) {
     const SweepVariant& v = out[m * sw.variants.size()];
     try {
@@ -108,8 +108,8 @@ std::vector<size_t> extreme_members(const std::vector<std::vector<ParameterValue
   return {extremes.begin(), extremes.end()};
 }
 
-std::vector<SweepVariant> ensemble_variants(const std::vector<SweepVariant>& layouts, const Ensemble& e) {
-  const auto members = ensemble_members(e);
+std::vector<SweepVariant> ensemble_variants(const std::vector<SweepVariant>& layouts,
+                                            const std::vector<std::vector<ParameterValue>>& members) {
   std::vector<SweepVariant> out;
   for (size_t m = 0; m < members.size(); ++m)
     for (const auto& layout : layouts) {

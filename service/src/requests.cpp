@@ -575,7 +575,7 @@ void add_ensemble_jobs(NewSweep& out, const Base& b, const Fidelity& fidelity, c
                                         " layouts = " + std::to_string(n) + " jobs (accepted: at most " +
                                         std::to_string(kMaxVariants) + " a sweep)");
   const std::vector<size_t> extremes = extreme_members(members);
-  const std::vector<SweepVariant> all = ensemble_variants(out.variants, e);
+  const std::vector<SweepVariant> all = ensemble_variants(out.variants, members);
   std::vector<JobSpec> first(out.variants.size());  // each layout's job at the first member
   for (size_t k = 0; k < all.size(); ++k) {
     const SweepVariant& v = all[k];

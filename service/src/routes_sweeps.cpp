@@ -36,7 +36,7 @@ json sweep_summary(const SweepRow& s, const std::map<std::string, int64_t>& coun
 
 // An ensemble sweep's summary over its done jobs (scenarios/ensemble_summary.hpp: each layout's decision metrics
 // as p10/p50/p90 over the members with every layout done, and its share of first places); null for a sweep
-// whose variants are not ensemble members or with no done member yet.
+// whose variants are not ensemble members or with no done member.
 json Server::Impl::ensemble_of(const std::vector<Job>& jobs, const std::string& sweep) const {
   std::map<std::string, int64_t> runs;
   for (const auto& j : jobs)
@@ -129,7 +129,8 @@ void Server::Impl::routes_sweeps() {
     }
     out["progress"] = {{"fraction", jobs.empty() ? 1.0 : fraction / static_cast<double>(jobs.size())}};
     out["variants"] = variants;
-    out["ensemble"] = ensemble_of(jobs, row->name);
+    // Read once the sweep has finished: a poll of a running sweep must not read every member's metrics.
+    out["ensemble"] = out["status"] != "running" ? ensemble_of(jobs, row->name) : json(nullptr);
     out["links"]["compare"] =
         out["status"] == "done" && !jobs.empty() ? json(kPrefix + "/compare?sweep=" + m[1].str()) : json(nullptr);
     send_json(res, 200, out);

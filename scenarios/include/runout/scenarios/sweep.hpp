@@ -71,8 +71,10 @@ std::vector<std::vector<ParameterValue>> ensemble_members(const Ensemble& e);
 // the last member's (members - 1).
 std::string member_variant_name(const std::string& layout, size_t member, size_t members);
 // Every layout with every member, member by member (a member's layouts finish together, so a partial ensemble
-// still compares layouts), named member_variant_name; each carries its member's values. Nothing is checked.
-std::vector<SweepVariant> ensemble_variants(const std::vector<SweepVariant>& layouts, const Ensemble& e);
+// still compares layouts), named member_variant_name; each carries its member's values (ensemble_members).
+// Nothing is checked.
+std::vector<SweepVariant> ensemble_variants(const std::vector<SweepVariant>& layouts,
+                                            const std::vector<std::vector<ParameterValue>>& members);
 // The members holding each parameter's smallest and largest value, ascending: those a sweep checks as scenes.
 std::vector<size_t> extreme_members(const std::vector<std::vector<ParameterValue>>& members);
 // n points of a d-dimensional Latin hypercube in (0, 1): in each dimension, one point in each of the n strata
