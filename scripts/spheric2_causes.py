@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """SPHERIC Test 2: the runs that measure why the face pressure is wrong (docs/validation.md section 7.1).
 
-    scripts/spheric2_causes.py make OUT_DIR         # writes OUT_DIR/{base,extrap,av10,c100}.json
+    scripts/spheric2_causes.py make OUT_DIR [ROWS]  # writes OUT_DIR/{base,extrap,av10,c100}.json
     build/runout run OUT_DIR/base.json --out OUT_DIR/base --no-db --threads 2 --quiet --snapshots   # each
     scripts/spheric2_causes.py read RUN_DIR         # the table's figures for one run
 
 Each scene is scenarios/validation/spheric2_3d.json run to 1.0 s with snapshots every 0.05 s, the fluid probes at
 every sensor height at face + 0.5 h (P1a..), face + h (P1.., the test's) and face + 2 h (P1c..), the face sensors
 (face_pressure, on the face) at the same heights, and one change: none, extrapolated walls, alpha 0.1, c0 100 m/s.
+ROWS (default 15, the scene's) sets dp = 0.55 / ROWS; the box is then laid as the nearest whole spacings from its
+front face (x = 0.8245 m) back, across and up (at 20: 6 x 15 x 6 spacings, 0.165 x 0.4125 x 0.165 m).
 Read with the test's formulas (tests/engine/spheric2_test.cpp): the experiment's zero offset (mean before 0.35 s)
 removed, the 10 ms moving-average peak over 0-0.55 s, the mean over 0.495-0.995 s.
 Needs numpy (Debian python3-numpy).
@@ -27,8 +29,15 @@ VARIANTS = {"base": {}, "extrap": {"boundary_pressure": "extrapolated"}, "av10":
             "c100": {"speed_of_sound": 100}}
 
 
-def make(out_dir):
+def make(out_dir, rows=15):
     base = json.load(open(os.path.join(ROOT, "scenarios/validation/spheric2_3d.json")))
+    if rows != 15:
+        dp = 0.55 / rows
+        base["dp"] = dp
+        nx, ny, nz = round(0.161 / dp), round(0.403 / dp), round(0.161 / dp)
+        box = next(b for b in base["boundaries"] if b["tag"] == "box")
+        box["min"] = [FACE_X - nx * dp, 0.5 - ny * dp / 2, 0]
+        box["max"] = [FACE_X, 0.5 + ny * dp / 2, nz * dp]
     os.makedirs(out_dir, exist_ok=True)
     for name, numerics in VARIANTS.items():
         s = copy.deepcopy(base)
@@ -102,6 +111,9 @@ def read(run_dir):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 3 or sys.argv[1] not in ("make", "read"):
+    if len(sys.argv) not in (3, 4) or sys.argv[1] not in ("make", "read"):
         sys.exit(__doc__)
-    (make if sys.argv[1] == "make" else read)(sys.argv[2])
+    if sys.argv[1] == "make":
+        make(sys.argv[2], int(sys.argv[3]) if len(sys.argv) == 4 else 15)
+    else:
+        read(sys.argv[2])

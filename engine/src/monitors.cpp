@@ -13,6 +13,7 @@ const std::vector<const MonitorType*>& monitor_types() {
       &monitor_detail::section_type(),
       &monitor_detail::structure_load_type(),
       &monitor_detail::pressure_probe_type(),
+      &monitor_detail::face_pressure_type(),
       &monitor_detail::depth_gauge_type(),
   };
   return types;

@@ -1,5 +1,6 @@
-// The point probes in still water, against the hydrostatic answer: a pressure probe reads rho0 g (H - z) at a
-// few depths and a depth gauge reads the fill height H, in 2D (the shipped hydrostatic tank) and in 3D.
+// The point probes in still water, against the hydrostatic answer: a pressure probe, and a face sensor on the
+// tank's side wall, read rho0 g (H - z) at a few depths and a depth gauge reads the fill height H, in 2D (the
+// shipped hydrostatic tank) and in 3D.
 //
 // Tolerances, from the model rather than from a run:
 //  * pressure: 3 % of rho0 g (H - z) + rho0 g delta. The 3 % is the weakly compressible model's hydrostatic
@@ -98,6 +99,19 @@ void expect_hydrostatic(const StillWaterRun<D>& r, size_t k, real H, real z) {
   EXPECT_EQ(r.mean[k][2], 1.0) << "wet at every sample";
 }
 
+// Face sensor k (face_pressure) at height z on a side wall: the same hydrostatic answer and tolerance. The pair
+// force of a consistent SPH pressure term across a plane is p per unit area for a uniform p (the momentum flux),
+// and the sensor weights its columns symmetrically about z, so a linear p is read at z.
+template <int D>
+void expect_face_hydrostatic(const StillWaterRun<D>& r, size_t k, real H, real z) {
+  const real ref = kRho * kG * (H - z), delta = kG * H * H / (2 * r.c0 * r.c0);
+  const real tol = 0.03 * ref + kRho * kG * delta;
+  const real p = r.mean[k][0];
+  std::printf("  %dD face sensor at z = %.3f m: %.1f Pa against rho g (H - z) = %.1f Pa (%+.2f %%; tolerance %.1f Pa)\n",
+              D, z, p, ref, 100 * (p - ref) / ref, tol);
+  EXPECT_NEAR(p, ref, tol) << "face sensor at z = " << z;
+}
+
 }  // namespace
 
 TEST(StillWaterProbes, StillWater2DReadsRhoGDepthAndTheDepthGaugeTheFillHeight) {
@@ -111,8 +125,14 @@ TEST(StillWaterProbes, StillWater2DReadsRhoGDepthAndTheDepthGaugeTheFillHeight) 
       {{"type", "pressure_probe"}, {"name", "p25"}, {"point", {0.15, 0.25}}},
       {{"type", "pressure_probe"}, {"name", "air"}, {"point", {0.15, 0.35}}},
       {{"type", "depth_gauge"}, {"name", "mid"}, {"point", {0.15, 0.0}}},
-      {{"type", "depth_gauge"}, {"name", "across"}, {"line", {{0.05, 0.0}, {0.25, 0.0}}}}};
+      {{"type", "depth_gauge"}, {"name", "across"}, {"line", {{0.05, 0.0}, {0.25, 0.0}}}},
+      {{"type", "face_pressure"}, {"name", "f05"}, {"structure", "tank"}, {"point", {0.0, 0.05}}, {"normal", {-1, 0}}},
+      {{"type", "face_pressure"}, {"name", "f15"}, {"structure", "tank"}, {"point", {0.3, 0.15}}, {"normal", {1, 0}}},
+      {{"type", "face_pressure"}, {"name", "f25"}, {"structure", "tank"}, {"point", {0.0, 0.25}}, {"normal", {-1, 0}}}};
   const auto r = run_still_water<2>(scene, 0.25);
+  expect_face_hydrostatic(r, 6, H, 0.05);
+  expect_face_hydrostatic(r, 7, H, 0.15);
+  expect_face_hydrostatic(r, 8, H, 0.25);
   expect_hydrostatic(r, 0, H, 0.05);
   expect_hydrostatic(r, 1, H, 0.15);
   expect_hydrostatic(r, 2, H, 0.25);
@@ -154,8 +174,14 @@ TEST(StillWaterProbes, StillWater3DReadsRhoGDepthAndTheDepthGaugeTheFillHeight) 
       {{"type", "pressure_probe"}, {"name", "p10"}, {"point", {0.1, 0.1, 0.10}}},
       {{"type", "pressure_probe"}, {"name", "p14"}, {"point", {0.1, 0.1, 0.14}}},
       {{"type", "depth_gauge"}, {"name", "mid"}, {"point", {0.1, 0.1, 0.0}}},
-      {{"type", "depth_gauge"}, {"name", "diagonal"}, {"line", {{0.06, 0.06}, {0.14, 0.14}}}, {"floor", 0.0}}};
+      {{"type", "depth_gauge"}, {"name", "diagonal"}, {"line", {{0.06, 0.06}, {0.14, 0.14}}}, {"floor", 0.0}},
+      {{"type", "face_pressure"}, {"name", "f06"}, {"structure", "tank"}, {"point", {0.0, 0.1, 0.06}},
+       {"normal", {-1, 0, 0}}},
+      {{"type", "face_pressure"}, {"name", "f10"}, {"structure", "tank"}, {"point", {0.1, 0.2, 0.10}},
+       {"normal", {0, 1, 0}}}};
   const auto r = run_still_water<3>(scene, 0.25);
+  expect_face_hydrostatic(r, 5, H, 0.06);
+  expect_face_hydrostatic(r, 6, H, 0.10);
   expect_hydrostatic(r, 0, H, 0.06);
   expect_hydrostatic(r, 1, H, 0.10);
   expect_hydrostatic(r, 2, H, 0.14);

@@ -43,6 +43,7 @@ class CellCount {
 const MonitorType& section_type();         // monitors/section.cpp
 const MonitorType& structure_load_type();  // monitors/structure_load.cpp
 const MonitorType& pressure_probe_type();  // monitors/pressure_probe.cpp
+const MonitorType& face_pressure_type();   // monitors/face_pressure.cpp
 const MonitorType& depth_gauge_type();     // monitors/depth_gauge.cpp
 
 // The keys the probes share, declared once (monitors/pressure_probe.cpp).

@@ -40,15 +40,22 @@ void read_normal(const Fields& f, const ParameterSpec& component, MonitorSpec& s
   if (!(n2 > 1e-12)) throw SceneError(f.at("normal"), "must not be zero");
 }
 
+// The boundary tag a monitor's "structure" names.
 template <int D>
-void read_structure_load(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec) {
+uint32_t read_structure_tag(const Build<D>& b, const Fields& f) {
   const std::vector<std::string>& tags = b.scene.boundary_tags;
   const std::string target = f.string("structure");
   auto it = std::find(tags.begin() + 1, tags.end(), target);
   if (it == tags.end())
     throw SceneError(f.at("structure"), "no boundary or structure named '" + target +
                                             "' (named: " + Fields::join({tags.begin() + 1, tags.end()}) + ")");
-  spec.tag = static_cast<uint32_t>(it - tags.begin());
+  return static_cast<uint32_t>(it - tags.begin());
+}
+
+template <int D>
+void read_structure_load(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec) {
+  spec.tag = read_structure_tag(b, f);
+  const std::string target = f.string("structure");
   if (f.has("normal")) {
     read_normal<D>(f, field_spec(type.fields, "normal").parameters.front(), spec);
   } else if (b.tmodel) {
@@ -57,6 +64,14 @@ void read_structure_load(const Build<D>& b, const Fields& f, const MonitorType& 
   }
   spec.window = read_parameter(f, field_spec(type.fields, "window").parameters.front());
   spec.min_wetted_area = read_parameter(f, field_spec(type.fields, "min_wetted_area").parameters.front());
+}
+
+// face_pressure: a structure, a point on its face (the run's frame) and the face's normal.
+template <int D>
+void read_face_pressure(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec) {
+  spec.tag = read_structure_tag(b, f);
+  read_face_point(b, f, type, spec);
+  read_normal<D>(f, field_spec(type.fields, "normal").parameters.front(), spec);
 }
 
 // The scene side of each monitor type: its keys into a MonitorSpec (positions in the run's frame).
@@ -69,6 +84,7 @@ MonitorReader<D> monitor_reader(const std::string& type) {
       {"structure_load", read_structure_load<D>},
       {"pressure_probe", read_pressure_probe<D>},
       {"depth_gauge", read_depth_gauge<D>},
+      {"face_pressure", read_face_pressure<D>},
   };
   const auto it = readers.find(type);
   if (it == readers.end()) throw std::logic_error("monitor type '" + type + "' has no scene reader");

@@ -1,5 +1,5 @@
-// The point probes' scene side (pressure_probe, depth_gauge): their points into the run's frame. On terrain a
-// point is [x, y] in map coordinates and its height comes from the bed under it (a pressure probe's optional
+// The point probes' scene side (pressure_probe, depth_gauge, face_pressure): their points into the run's frame.
+// On terrain a point is [x, y] in map coordinates and its height comes from the bed under it (a pressure probe's optional
 // z is its height above the bed); elsewhere it is written in the scene's own coordinates, the vertical last.
 // Every point must lie in the run's domain (the plan axes within it, the vertical above its bottom: the top is
 // open), and on terrain over the modelled bed.
@@ -136,6 +136,19 @@ void read_depth_gauge(const Build<D>& b, const Fields& f, const MonitorType& typ
   }
 }
 
+template <int D>
+void read_face_point(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec) {
+  const FieldSpec& key = field_spec(type.fields, "point");
+  const auto c = read_coordinates(f, key, {static_cast<size_t>(D)});
+  std::array<real, 3> p{0, 0, 0};
+  for (int d = 0; d < D; ++d) p[d] = c[d];
+  if (b.tmodel) p[0] -= b.tmodel->origin_x, p[1] -= b.tmodel->origin_y;
+  check_in_domain(b, f.at(key.key), p, true);
+  spec.probe_points = {p};
+}
+
+template void read_face_point<2>(const Build<2>&, const Fields&, const MonitorType&, MonitorSpec&);
+template void read_face_point<3>(const Build<3>&, const Fields&, const MonitorType&, MonitorSpec&);
 template void read_pressure_probe<2>(const Build<2>&, const Fields&, const MonitorType&, MonitorSpec&);
 template void read_pressure_probe<3>(const Build<3>&, const Fields&, const MonitorType&, MonitorSpec&);
 template void read_depth_gauge<2>(const Build<2>&, const Fields&, const MonitorType&, MonitorSpec&);

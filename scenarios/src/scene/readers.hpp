@@ -225,6 +225,9 @@ template <int D>
 void read_pressure_probe(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec);
 template <int D>
 void read_depth_gauge(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec);
+// face_pressure's point: on the face, in the scene's coordinates (on terrain x, y map coordinates, z the elevation).
+template <int D>
+void read_face_point(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec);
 
 // The terrain, release, structures and protected_zones sections (docs/scene-format.md, "Terrain scenes").
 inline const std::set<std::string> kReleaseKeys{"polygon", "depth", "volume", "material", "hydrograph"};

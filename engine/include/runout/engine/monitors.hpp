@@ -22,8 +22,9 @@ struct MonitorSpec {
   std::string name;
   // section: the gauge line in plan, (x, y) per point (3D); in 2D one point whose x is the section.
   std::vector<std::array<real, 2>> points;
-  // pressure_probe, depth_gauge: positions in the run's frame, the vertical last ((x, y, z) in 3D, (x, y, unused)
-  // in 2D). pressure_probe: its one point; depth_gauge: each station's foot, the floor or bed it measures from.
+  // pressure_probe, depth_gauge, face_pressure: positions in the run's frame, the vertical last ((x, y, z) in 3D,
+  // (x, y, unused) in 2D). pressure_probe: its one point; depth_gauge: each station's foot, the floor or bed it
+  // measures from; face_pressure: the sensor's centre on the structure's face.
   std::vector<std::array<real, 3>> probe_points;
   // depth_gauge along a line: each station's distance along it [m] (empty for a gauge at one point).
   std::vector<real> probe_stations;
@@ -33,8 +34,8 @@ struct MonitorSpec {
   // section: the flow volume that must have passed for the front to have arrived [m3, or m2 in 2D];
   // 0 = 0.5% of the fluid volume at the start.
   real arrival_volume = 0.0;
-  // structure_load: the boundary tag of the structure, and the direction the flow pushes it (unit vector,
-  // components beyond the dimension ignored); a zero normal reports the magnitude of the force.
+  // structure_load, face_pressure: the boundary tag of the structure, and the direction the flow pushes it (unit
+  // vector, components beyond the dimension ignored); structure_load: a zero normal reports the force's magnitude.
   uint32_t tag = 0;
   std::array<real, 3> normal{0, 0, 0};
   // section and structure_load: the averaging window of the reported discharge or load [s]; structure_load: the
