@@ -107,6 +107,29 @@ TEST(Schema, DocsNumericsTableAgreesWithTheDescriptors) {
   }
 }
 
+// A SolverConfig made in code (an engine test, a bench) starts from the numerics a scene gets when it says nothing:
+// one source (numerics_default, solver.hpp). The smoothing length was 1.3 dp in the engine and 1.5 dp in scenes.
+TEST(Schema, SolverConfigStartsFromTheScenesNumericsDefaults) {
+  const SolverConfig c;
+  const auto def = [](const char* key) { return numerics_parameter(key).default_value; };
+  EXPECT_DOUBLE_EQ(c.smoothing_length / c.dp, def("smoothing_ratio"));
+  EXPECT_EQ(c.verlet_reset_steps, def("verlet_reset_steps"));
+  EXPECT_EQ(c.cfl, def("cfl"));
+  EXPECT_EQ(c.density_diffusion_delta, def("density_diffusion_delta"));
+  EXPECT_EQ(c.artificial_viscosity, def("artificial_viscosity"));
+  EXPECT_EQ(c.viscosity_cap_factor, def("viscosity_cap_factor"));
+  EXPECT_EQ(c.viscous_tolerance, def("viscous_tolerance"));
+  EXPECT_EQ(c.viscous_max_iterations, def("viscous_max_iterations"));
+  EXPECT_EQ(c.shear_rate_floor, def("shear_rate_floor"));
+  EXPECT_EQ(c.min_dt, def("min_dt"));
+  EXPECT_EQ(c.max_dilatancy, def("max_dilatancy"));
+  EXPECT_EQ(c.neighbour_skin, def("neighbour_skin"));
+  // The choices: a scene's defaults are the first of each list (fourtakas the last of density diffusion's).
+  EXPECT_EQ(std::string(kernel_name(c.kernel)), kernel_names().front());
+  EXPECT_EQ(integrator_names()[static_cast<size_t>(c.integrator)], integrator_names().front());
+  EXPECT_EQ(density_diffusion_names()[static_cast<size_t>(c.density_diffusion)], density_diffusion_names().back());
+}
+
 // The monitors' and structures' tables of docs/scene-format.md are generated from their descriptors.
 namespace {
 void check_generated_block(const std::string& marker, const std::string& want) {

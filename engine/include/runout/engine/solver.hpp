@@ -33,38 +33,56 @@ enum class ViscousStep { explicit_capped, implicit };
 // top particle on a 30 deg staircase; every face of the lattice (0.71 dp from its corners) is covered.
 constexpr real kWallContact = 0.75;
 
+// The plain-number numerics' defaults, declared once: SolverConfig's members start from them and
+// numerics_parameters() (the scene's defaults, its schema and docs/scene-format.md) gives them.
+namespace numerics_default {
+inline constexpr real smoothing_ratio = 1.5;  // h / dp
+inline constexpr int verlet_reset_steps = 40;
+inline constexpr real cfl = 0.2;
+inline constexpr real density_diffusion_delta = 0.1;
+inline constexpr real artificial_viscosity = 0.0;
+inline constexpr real viscosity_cap_factor = 1.0;
+inline constexpr real viscous_tolerance = 1e-6;
+inline constexpr int viscous_max_iterations = 1000;
+inline constexpr real shear_rate_floor = 1e-6;  // [1/s]
+inline constexpr real min_dt = 1e-8;            // [s]
+inline constexpr real max_dilatancy = 0.0;
+inline constexpr real neighbour_skin = 0.3;
+}  // namespace numerics_default
+
 struct SolverConfig {
   real dp = 0.01;                   // initial particle spacing [m]
-  real smoothing_length = 0.013;    // h [m]
+  real smoothing_length = numerics_default::smoothing_ratio * 0.01;  // h [m], at the default dp
   KernelKind kernel = KernelKind::wendland;
   real speed_of_sound = 20.0;       // c0 [m/s], same for every material
   real eos_gamma = 7.0;
-  real cfl = 0.2;
+  real cfl = numerics_default::cfl;
   Integrator integrator = Integrator::symplectic;
-  int verlet_reset_steps = 40;      // Verlet: one Euler step every N steps (thesis eq. 2.24)
+  // Verlet: one Euler step every N steps (thesis eq. 2.24)
+  int verlet_reset_steps = numerics_default::verlet_reset_steps;
   DensityDiffusion density_diffusion = DensityDiffusion::fourtakas;
-  real density_diffusion_delta = 0.1;
-  real artificial_viscosity = 0.0;  // Monaghan alpha; 0 switches the term off
+  real density_diffusion_delta = numerics_default::density_diffusion_delta;
+  real artificial_viscosity = numerics_default::artificial_viscosity;  // Monaghan alpha; 0 switches the term off
   // Effective-viscosity cap [Pa s]. <= 0 means "auto": viscosity_cap_factor times the viscosity at which
   // the viscous time-step limit equals the acoustic one (0.125 h rho c0 / cfl).
   real max_viscosity = 0.0;
-  real viscosity_cap_factor = 1.0;
-  real shear_rate_floor = 1e-6;     // [1/s]
+  real viscosity_cap_factor = numerics_default::viscosity_cap_factor;
+  real shear_rate_floor = numerics_default::shear_rate_floor;  // [1/s]
   ViscousStep viscous_step = ViscousStep::explicit_capped;
   // Implicit step: CG stops when the M^-1-weighted residual is under this fraction of the right-hand side's
   // (docs/design.md, "Implicit viscous step"), or after viscous_max_iterations.
-  real viscous_tolerance = 1e-6;
-  int viscous_max_iterations = 1000;
-  real min_dt = 1e-8;               // a step below this stops the run [s]
+  real viscous_tolerance = numerics_default::viscous_tolerance;
+  int viscous_max_iterations = numerics_default::viscous_max_iterations;
+  real min_dt = numerics_default::min_dt;  // a step below this stops the run [s]
   // Verlet-list skin as a fraction of h: the cells are sorted and scanned for pair candidates within
   // 2h + skin, kept until a pair may have closed in by the skin; 0 scans them at every evaluation.
-  real neighbour_skin = 0.3;
+  real neighbour_skin = numerics_default::neighbour_skin;
   // Keep a material's fluid density at or above the density where the equation of state reaches its tension
   // floor (rho0 for cohesionless friction-HBP; liquids, without a floor, are untouched): see step().
   bool density_floor = false;
   // How far under that density the floor stands, as a fraction: 0.1 lets a granular material dilate 10 %
   // (loose against dense random packing) before its density is held.
-  real max_dilatancy = 0.0;
+  real max_dilatancy = numerics_default::max_dilatancy;
   std::array<real, 3> gravity{0.0, 0.0, -9.81};  // first D components are used
   real boundary_density = 1000.0;   // reference density of boundary particles [kg/m^3]
   BoundaryPressure boundary_pressure = BoundaryPressure::dbc;
