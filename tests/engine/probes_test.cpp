@@ -107,7 +107,8 @@ void expect_face_hydrostatic(const StillWaterRun<D>& r, size_t k, real H, real z
   const real ref = kRho * kG * (H - z), delta = kG * H * H / (2 * r.c0 * r.c0);
   const real tol = 0.03 * ref + kRho * kG * delta;
   const real p = r.mean[k][0];
-  std::printf("  %dD face sensor at z = %.3f m: %.1f Pa against rho g (H - z) = %.1f Pa (%+.2f %%; tolerance %.1f Pa)\n",
+  std::printf("  %dD face sensor at z = %.3f m: %.1f Pa against rho g (H - z) = %.1f Pa (%+.2f %%; "
+              "tolerance %.1f Pa)\n",
               D, z, p, ref, 100 * (p - ref) / ref, tol);
   EXPECT_NEAR(p, ref, tol) << "face sensor at z = " << z;
 }

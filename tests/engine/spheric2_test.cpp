@@ -35,8 +35,8 @@
 // ones (the DBC wall's own continuity pressure during the impact: on extrapolated walls they are +42 / +59 %),
 // and F1, in the floor-face corner, reads half the pressure after the impact; F2's post-impact mean is within its
 // band (+7 %). Refined to SPHERIC's 0.55/30 (18 minutes, not run here) the means and F1's arrival come inside their
-// bands and the peaks fall to +68 / +45 %. The tolerances were not moved. (Issue 42 sets the aim for P1's peak and post-impact pressure at 20 %; the bands here, declared first,
-// are 25 %.) The known failure runs the scene again in its own process (about 200 s on CI's two threads).
+// bands and the peaks fall to +68 / +45 %. The tolerances were not moved. (Issue 42 sets the aim for P1's peak
+// and post-impact pressure at 20 %; the bands here, declared first, are 25 %.) The known failure runs the scene again in its own process (about 200 s on CI's two threads).
 // P3 and P4 and the gauges at x = 0.496 and 1.488 m are printed only: at dp = 0.55/15 the box is laid 4 spacings
 // (0.147 m) high against 0.161 m, P4 (z = 0.141 m) is 6 mm under its top, and the probes' kernel support
 // (2h = 0.11 m) reaches over the top into the overtopping jet from P3 up; the other two gauges' labels are the

@@ -1,6 +1,7 @@
 // The point probes' scene side (pressure_probe, depth_gauge, face_pressure): their points into the run's frame.
-// On terrain a point is [x, y] in map coordinates and its height comes from the bed under it (a pressure probe's optional
-// z is its height above the bed); elsewhere it is written in the scene's own coordinates, the vertical last.
+// On terrain a point is [x, y] in map coordinates and its height comes from the bed under it (a pressure probe's
+// optional z is its height above the bed; a face sensor's z is its elevation); elsewhere it is written in the
+// scene's own coordinates, the vertical last.
 // Every point must lie in the run's domain (the plan axes within it, the vertical above its bottom: the top is
 // open), and on terrain over the modelled bed.
 #include "readers.hpp"
