@@ -260,36 +260,14 @@ double runout_distance(const terrain::TerrainModel& tm, const terrain::Inundatio
   return best;
 }
 
-// Flow volume each structure holds at the end: inside a deposition area's polygon; inside a basin's polygon
-// below its rim; for a check dam, upstream of its axis (within the axis' span) below its crest.
-// below_rim = false: a check dam's whole upstream volume (within its span, at any height), the flow it held
-// back; its deposit wedge on a steep bed mostly stands above the crest. Basins and deposition areas as above.
+// Flow volume a structure holds at the end, by its type's rule (StructureType::holds); below_rim = false: what
+// it held back at any height (a check dam's upstream volume).
 double retained_volume(const terrain::TerrainModel& tm, const terrain::StructureInfo& st,
                        const std::vector<Vec<3>>& pos, const std::vector<real>& vol, bool below_rim = true) {
   double v = 0;
   for (size_t k = 0; k < pos.size(); ++k) {
     const double x = pos[k][0] + tm.origin_x, y = pos[k][1] + tm.origin_y, z = pos[k][2];
-    bool held = false;
-    switch (st.kind) {
-      case terrain::StructureKind::deposition_area:
-        held = terrain::inside_polygon(st.outline, x, y);
-        break;
-      case terrain::StructureKind::retention_basin:
-        held = z < st.crest_elevation && terrain::inside_polygon(st.outline, x, y);
-        break;
-      case terrain::StructureKind::check_dam: {
-        if (below_rim && z >= st.crest_elevation) break;
-        // Upstream of the axis: behind the nearest segment of those whose extent the point is in, against the
-        // flow normal (the side by the flow, not by the segment's direction).
-        SegmentRules rules;
-        rules.ends = SegmentRules::Ends::skip;
-        const NearestSegment n = nearest_segment(st.outline, x, y, rules);
-        if (n.index < 0) break;
-        const auto& a = st.outline[n.index];
-        held = (x - a[0]) * st.flow_normal[0] + (y - a[1]) * st.flow_normal[1] < 0;
-        break;
-      }
-    }
+    const bool held = st.type->holds(st, x, y, z, below_rim);
     if (held) v += vol[k];
   }
   return v;
@@ -309,7 +287,7 @@ std::vector<terrain::MapOverlay> map_overlays(const terrain::TerrainModel& tm) {
   };
   auto closed = [&](const terrain::Polyline& p) { return line(p, true); };
   for (const auto& st : tm.structures)
-    overlays[0].lines.push_back(line(st.outline, st.kind != terrain::StructureKind::check_dam));
+    overlays[0].lines.push_back(line(st.outline, st.type->area));
   for (const auto& z : tm.protected_zones)
     for (const auto& ring : terrain::split_rings(z.polygon)) overlays[1].lines.push_back(closed(ring));
   for (const auto& ring : terrain::split_rings(tm.release_polygon)) overlays[2].lines.push_back(closed(ring));
@@ -322,7 +300,7 @@ json structure_metrics(const terrain::TerrainModel& tm, const std::vector<Vec<3>
   json ss = json::array();
   for (const auto& st : tm.structures)
     ss.push_back({{"name", st.name},
-                  {"type", terrain::kind_name(st.kind)},
+                  {"type", st.type->name},
                   {"tag", st.tag},
                   {"cut_volume_m3", st.cut_volume},
                   {"fill_volume_m3", st.fill_volume},
@@ -330,7 +308,7 @@ json structure_metrics(const terrain::TerrainModel& tm, const std::vector<Vec<3>
                   {"storage_capacity_m3", st.storage_capacity},
                   {"retained_volume_m3", retained_volume(tm, st, final_pos, final_vol)}});
   for (size_t k = 0; k < tm.structures.size(); ++k)
-    if (tm.structures[k].kind == terrain::StructureKind::check_dam)
+    if (tm.structures[k].type->reports_upstream)
       ss[k]["upstream_volume_m3"] = retained_volume(tm, tm.structures[k], final_pos, final_vol, false);
   return ss;
 }

@@ -1,6 +1,7 @@
 #include "runout/scenarios/schema.hpp"
 
 #include <nlohmann/json.hpp>
+#include <algorithm>
 #include <sstream>
 
 #include "runout/engine/kernels.hpp"
@@ -10,6 +11,7 @@
 #include "runout/scenarios/scene.hpp"
 #include "runout/terrain/hazard.hpp"
 #include "runout/terrain/terrain.hpp"
+#include "scene/boundary_types.hpp"
 
 namespace runout {
 namespace {
@@ -134,6 +136,8 @@ json field_schema(const FieldSpec& f) {
     s = {{"type", "object"}, {"properties", props}, {"required", required}, {"additionalProperties", false}};
   } else if (f.shape == "indices") {
     s = {{"type", "array"}, {"items", {{"type", "integer"}, {"minimum", 0}}}};
+  } else if (f.shape == "faces") {
+    s = {{"type", "array"}, {"items", {{"enum", {"x-", "x+", "y-", "y+", "z-", "z+", "top", "bottom"}}}}};
   } else {
     s = {{"type", f.shape}};
   }
@@ -156,6 +160,20 @@ json typed_schema(const std::string& name, const std::string& doc, const std::ve
 json monitors_schema() {
   json alts = json::array();
   for (const auto* t : monitor_types()) alts.push_back(typed_schema(t->name, t->doc, t->fields));
+  return {{"type", "array"}, {"items", {{"oneOf", alts}}}};
+}
+
+// A boundary is not named: it has a tag and a layer count besides its type's keys.
+json boundaries_schema() {
+  json alts = json::array();
+  for (const auto* t : scene_reader::boundary_types()) {
+    std::vector<FieldSpec> fields = scene_reader::boundary_common_fields();
+    fields.insert(fields.end(), t->fields.begin(), t->fields.end());
+    json alt = typed_schema(t->name, t->doc, fields);
+    alt["properties"].erase("name");
+    alt["required"].erase(std::find(alt["required"].begin(), alt["required"].end(), "name"));
+    alts.push_back(alt);
+  }
   return {{"type", "array"}, {"items", {{"oneOf", alts}}}};
 }
 
@@ -227,7 +245,7 @@ json scene_schema() {
             {"numerics", numerics_schema()},
             {"fluid", array_of_objects},
             {"inlets", array_of_objects},
-            {"boundaries", array_of_objects},
+            {"boundaries", boundaries_schema()},
             {"domain", object},
             {"output", output_schema()},
             {"limits", object},
@@ -278,6 +296,8 @@ std::string shape_text(const FieldSpec& f) {
   if (f.shape == "polyline") return "array of ≥ " + std::to_string(f.min_points) + " `[x, y]`, or a layer";
   if (f.shape == "vector") return "array of `dimensions` numbers";
   if (f.shape == "indices") return "array of integers";
+  if (f.shape == "faces") return "array of face names";
+  if (f.shape == "number" && !f.parameters.empty() && f.parameters.front().integer) return "integer";
   return f.shape;
 }
 
@@ -326,5 +346,15 @@ std::string intensity_parameter_table() {
   return s.str();
 }
 std::string structure_type_tables() { return type_tables(terrain::structure_types()); }
+
+std::string boundary_type_tables() {
+  std::ostringstream s;
+  s << "Every boundary:\n\n| field | shape | default | unit | accepted | meaning |\n|---|---|---|---|---|---|\n";
+  s << "| `type` | string | **required** | – | ";
+  for (const auto* t : scene_reader::boundary_types()) s << "`" << t->name << "`" << (t == scene_reader::boundary_types().back() ? "" : ", ");
+  s << " | the boundary type (below) |\n";
+  for (const auto& f : scene_reader::boundary_common_fields()) field_rows(s, f);
+  return s.str() + "\n" + type_tables(scene_reader::boundary_types());
+}
 
 }  // namespace runout

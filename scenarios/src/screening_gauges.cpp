@@ -44,8 +44,7 @@ FlowAt flow_at(const da::Model& m, double x, double y) {
 
 }  // namespace
 
-ScreeningGauges::ScreeningGauges(const Scene& scene, const json& scene_json, const ScreeningSettings& s,
-                                 const da::Model& model)
+ScreeningGauges::ScreeningGauges(const Scene& scene, const ScreeningSettings& s, const da::Model& model)
     : tm_(*scene.terrain), density_(s.density), gravity_(model.config().gravity), window_(s.output_interval) {
   const da::Particles& p = model.particles();
   for (const auto& spec : scene.monitors) {
@@ -83,17 +82,13 @@ ScreeningGauges::ScreeningGauges(const Scene& scene, const json& scene_json, con
   }
   // Check dams: points along the axis every dp, moved upstream by half the wall's thickness and 1.5 spacings, where
   // the flow in front of the wall is sampled (the raised bed's own slope stays out of cos theta there).
-  const json structures = scene_json.value("structures", json::array());
   for (size_t k = 0; k < tm_.structures.size(); ++k) {
     const auto& st = tm_.structures[k];
-    if (st.kind != terrain::StructureKind::check_dam) continue;
+    if (st.type->area) continue;  // a wall along an axis is loaded along it
     auto d = std::make_unique<DamLoad>();
     d->structure = k;
     d->normal = st.flow_normal;
-    double thickness = 0;
-    for (const auto& j : structures)
-      if (j.value("name", std::string()) == st.name) thickness = j.value("thickness", 0.0);
-    d->offset = 0.5 * std::max(thickness, tm_.dp) + 1.5 * std::max(s.spacing, tm_.dp);
+    d->offset = 0.5 * std::max(st.wall_thickness, tm_.dp) + 1.5 * std::max(s.spacing, tm_.dp);
     d->ds = tm_.dp;
     for (size_t e = 0; e + 1 < st.outline.size(); ++e) {
       const auto& a = st.outline[e];

@@ -21,8 +21,7 @@ struct ScreeningSettings;
 
 class ScreeningGauges {
  public:
-  ScreeningGauges(const Scene& scene, const nlohmann::json& scene_json, const ScreeningSettings& settings,
-                  const depth_averaged::Model& model);
+  ScreeningGauges(const Scene& scene, const ScreeningSettings& settings, const depth_averaged::Model& model);
   void sample(const depth_averaged::Model& model);
   // OUT/series/section_<name>.csv and screening_load_<name>.csv.
   void write(const std::filesystem::path& series_dir) const;

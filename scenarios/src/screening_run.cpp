@@ -445,7 +445,7 @@ RunSummary run_screening(const Scene& scene, const RunOptions& opt) {
   da::Model model(s.config(std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])), terrain_bed(tm, s.kernel_ratio() * s.spacing), std::move(start));
   ScreeningWatch watch(tm, s, scene.output, n);
   watch.sample(model);
-  ScreeningGauges gauges(scene, scene_json, s, model);
+  ScreeningGauges gauges(scene, s, model);
   std::unique_ptr<Inflow> inflow;
   if (hydrograph) inflow = std::make_unique<Inflow>(tm, setup.inlets.at(0), scene.dp, s.spacing);
   const auto com_start = flow_centre(model, watch);

@@ -45,11 +45,12 @@ double check_inputs(const TerrainSpec& spec, const Grid& dem) {
   for (size_t k = 0; k < spec.structures.size(); ++k) {
     const auto& s = spec.structures[k];
     const std::string field = detail::structure_field(k);
-    const size_t need = s.kind == StructureKind::check_dam ? 2 : 3;
+    if (!s.type) throw TerrainError(field, "'" + s.name + "' has no structure type");
+    const size_t need = s.type->area ? 3 : 2;
     if (s.line.size() < need)
       throw TerrainError(field, "'" + s.name + "' needs at least " + std::to_string(need) + " vertices");
     require_inside_dem(dem, s.line, field, "'" + s.name + "'");
-    if (s.kind != StructureKind::check_dam && !(polygon_area(s.line) > 0))
+    if (s.type->area && !(polygon_area(s.line) > 0))
       throw TerrainError(field, "'" + s.name + "' has zero area");
   }
   for (size_t k = 0; k < spec.protected_zones.size(); ++k)

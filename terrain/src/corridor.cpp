@@ -110,7 +110,7 @@ void add_footprint_cells(const Grid& dem, const std::vector<Footprint>& feet, st
       if (dem.cy(j) < y0 - r || dem.cy(j) > y1 + r) continue;
       for (int i = 0; i < dem.nx; ++i) {
         if (dem.cx(i) < x0 - r || dem.cx(i) > x1 + r) continue;
-        const double d = f.s->kind == StructureKind::check_dam ? distance_to_polyline(f.s->line, dem.cx(i), dem.cy(j))
+        const double d = !f.s->type->area ? distance_to_polyline(f.s->line, dem.cx(i), dem.cy(j))
                          : inside_polygon(f.s->line, dem.cx(i), dem.cy(j)) ? 0.0
                                                                           : distance_to_polyline(ring, dem.cx(i), dem.cy(j));
         if (d <= r) corridor[static_cast<size_t>(j) * dem.nx + i] = 1;

@@ -43,13 +43,4 @@ double distance_to_polyline(const Polyline& line, double x, double y, double* al
   return best;
 }
 
-const char* kind_name(StructureKind kind) {
-  switch (kind) {
-    case StructureKind::check_dam: return "check_dam";
-    case StructureKind::deposition_area: return "deposition_area";
-    case StructureKind::retention_basin: return "retention_basin";
-  }
-  return "?";
-}
-
 }  // namespace runout::terrain

@@ -174,7 +174,7 @@ bool add_structure_layer(GDALDataset& out, const std::string& name, bool areas, 
                          const std::vector<double>& upstream, const std::string& path) {
   std::vector<size_t> which;
   for (size_t k = 0; k < all.size(); ++k)
-    if ((all[k].kind != StructureKind::check_dam) == areas && all[k].outline.size() >= (areas ? 3u : 2u)) which.push_back(k);
+    if (all[k].type->area == areas && all[k].outline.size() >= (areas ? 3u : 2u)) which.push_back(k);
   if (which.empty()) return false;
   OGRSpatialReference srs = layer_crs(crs_wkt);
   OGRLayer* layer = out.CreateLayer(name.c_str(), crs_wkt.empty() ? nullptr : &srs, areas ? wkbPolygon : wkbLineString, nullptr);
@@ -197,7 +197,7 @@ bool add_structure_layer(GDALDataset& out, const std::string& name, bool areas, 
     const StructureInfo& st = all[k];
     OGRFeature f(layer->GetLayerDefn());
     f.SetField("name", st.name.c_str());
-    f.SetField("type", kind_name(st.kind));
+    f.SetField("type", st.type->name.c_str());
     real(f, "crest_elevation_m", st.crest_elevation);
     real(f, "wall_height_m", st.wall_height_built);
     real(f, "storage_capacity_m3", st.storage_capacity);

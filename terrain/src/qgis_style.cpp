@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "runout/terrain/raster.hpp"
+#include "runout/terrain/terrain.hpp"
 
 namespace runout::terrain {
 namespace {
@@ -88,28 +89,33 @@ std::string structure_layer_qml(bool areas) {
   std::ostringstream q;
   q << "<!DOCTYPE qgis PUBLIC 'http://mrcc.com/qgis.dtd' 'SYSTEM'>\n"
     << "<qgis version=\"3.28.0\" styleCategories=\"Symbology|Labeling\" labelsEnabled=\"1\">\n";
-  if (!areas) {  // a check dam's crest line: thick, dark, above every fill
+  if (!areas) {  // a wall's axis (a check dam's crest line): thick, dark, above every fill
+    std::string colour = "#3b3b3b";
+    for (const auto* t : structure_types())
+      if (!t->area) colour = t->colour;
     q << "  <renderer-v2 type=\"singleSymbol\" symbollevels=\"0\" enableorderby=\"0\" forceraster=\"0\">\n"
       << "    <symbols>\n      <symbol type=\"line\" name=\"0\" alpha=\"1\" clip_to_extent=\"1\" force_rhr=\"0\">\n"
       << "        <layer class=\"SimpleLine\" enabled=\"1\" pass=\"0\" locked=\"0\">\n          <Option type=\"Map\">\n"
-      << "            <Option type=\"QString\" name=\"line_color\" value=\"" << qgis_colour("#3b3b3b") << "\"/>\n"
+      << "            <Option type=\"QString\" name=\"line_color\" value=\"" << qgis_colour(colour) << "\"/>\n"
       << "            <Option type=\"QString\" name=\"line_width\" value=\"1.2\"/>\n"
       << "            <Option type=\"QString\" name=\"line_width_unit\" value=\"MM\"/>\n"
       << "            <Option type=\"QString\" name=\"capstyle\" value=\"flat\"/>\n          </Option>\n"
       << "        </layer>\n      </symbol>\n    </symbols>\n  </renderer-v2>\n";
   } else {  // deposition areas and retention basins: outlined, lightly filled so the hazard under them shows
-    const std::pair<const char*, const char*> kinds[] = {{"deposition_area", "#8c6d31"}, {"retention_basin", "#31688c"}};
+    std::vector<const StructureType*> kinds;  // the area types, each in its own colour
+    for (const auto* t : structure_types())
+      if (t->area) kinds.push_back(t);
     q << "  <renderer-v2 type=\"categorizedSymbol\" attr=\"type\" symbollevels=\"0\" enableorderby=\"0\" "
       << "forceraster=\"0\">\n    <categories>\n";
-    for (size_t k = 0; k < 2; ++k)
-      q << "      <category value=\"" << kinds[k].first << "\" symbol=\"" << k << "\" label=\""
-        << (k == 0 ? "deposition area" : "retention basin") << "\" render=\"true\"/>\n";
+    for (size_t k = 0; k < kinds.size(); ++k)
+      q << "      <category value=\"" << kinds[k]->name << "\" symbol=\"" << k << "\" label=\"" << kinds[k]->label
+        << "\" render=\"true\"/>\n";
     q << "    </categories>\n    <symbols>\n";
-    for (size_t k = 0; k < 2; ++k)
+    for (size_t k = 0; k < kinds.size(); ++k)
       q << "      <symbol type=\"fill\" name=\"" << k << "\" alpha=\"1\" clip_to_extent=\"1\" force_rhr=\"0\">\n"
         << "        <layer class=\"SimpleFill\" enabled=\"1\" pass=\"0\" locked=\"0\">\n          <Option type=\"Map\">\n"
-        << "            <Option type=\"QString\" name=\"color\" value=\"" << qgis_colour(kinds[k].second, 1.0, 64) << "\"/>\n"
-        << "            <Option type=\"QString\" name=\"outline_color\" value=\"" << qgis_colour(kinds[k].second) << "\"/>\n"
+        << "            <Option type=\"QString\" name=\"color\" value=\"" << qgis_colour(kinds[k]->colour, 1.0, 64) << "\"/>\n"
+        << "            <Option type=\"QString\" name=\"outline_color\" value=\"" << qgis_colour(kinds[k]->colour) << "\"/>\n"
         << "            <Option type=\"QString\" name=\"outline_style\" value=\"solid\"/>\n"
         << "            <Option type=\"QString\" name=\"outline_width\" value=\"0.6\"/>\n"
         << "            <Option type=\"QString\" name=\"outline_width_unit\" value=\"MM\"/>\n"

@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <map>
+#include <set>
 #include <sstream>
 
 #include "runout/engine/rheology.hpp"
@@ -150,6 +152,8 @@ void check_generated_block(const std::string& marker, const std::string& want) {
 }  // namespace
 
 TEST(Schema, DocsMonitorTablesMatchTheDescriptors) { check_generated_block("monitor-types", monitor_type_tables()); }
+
+TEST(Schema, DocsBoundaryTablesMatchTheDescriptors) { check_generated_block("boundary-types", boundary_type_tables()); }
 TEST(Schema, DocsIntensityTableMatchesTheDescriptors) {
   check_generated_block("intensity-thresholds", intensity_parameter_table());
 }
@@ -174,6 +178,28 @@ TEST(Schema, EveryMonitorAndStructureTypeIsAnAlternativeWithItsKeys) {
     check(s["properties"]["monitors"]["items"]["oneOf"], t->name, t->fields);
   for (const auto* t : terrain::structure_types())
     check(s["properties"]["structures"]["items"]["oneOf"], t->name, t->fields);
+}
+
+// Every boundary type is an alternative of `boundaries` with its own keys and those every boundary has
+// (type, tag, layers), and no name: the four types docs/scene-format.md describes.
+TEST(Schema, EveryBoundaryTypeIsAnAlternativeWithItsKeys) {
+  const json alts = scene_schema()["properties"]["boundaries"]["items"]["oneOf"];
+  const std::map<std::string, std::set<std::string>> want = {
+      {"tank", {"min", "max", "origin", "size", "angle", "open"}},
+      {"block", {"min", "max", "origin", "size", "angle"}},
+      {"plane", {"origin", "length", "angle", "width"}},
+      {"flume", {"origin", "length", "angle", "width", "wall_height"}}};
+  ASSERT_EQ(alts.size(), want.size());
+  for (const auto& alt : alts) {
+    const std::string name = alt["properties"]["type"]["const"];
+    ASSERT_TRUE(want.count(name)) << name;
+    std::set<std::string> keys = want.at(name);
+    keys.insert({"type", "tag", "layers"});
+    std::set<std::string> have;
+    for (auto it = alt["properties"].begin(); it != alt["properties"].end(); ++it) have.insert(it.key());
+    EXPECT_EQ(have, keys) << name;
+    EXPECT_FALSE(alt["additionalProperties"].get<bool>()) << name;
+  }
 }
 
 // What a structure's descriptor says of a number's range, the parser enforces (naming the field and the range).
@@ -206,6 +232,39 @@ TEST(Schema, ParserEnforcesTheStructureRanges) {
       }
     }
   }
+}
+
+// The rules across a structure's keys (its type's `check`) are refused naming the key at fault.
+TEST(Schema, StructureRulesAcrossKeysNameTheKey) {
+  auto refusal = [](const json& st) -> std::pair<std::string, std::string> {
+    const json scene = {{"dimensions", 3}, {"dp", 1}, {"duration", 1}, {"terrain", {{"dem", "none.tif"}}},
+                        {"materials", {{{"name", "m"}, {"rheology", "newtonian"}, {"density", 1000}}}},
+                        {"release", {{"polygon", {{0, 0}, {1, 0}, {1, 1}}}, {"depth", 1}, {"material", "m"}}},
+                        {"structures", {st}}};
+    try {
+      parse_scene(scene.dump());
+    } catch (const SceneError& e) {
+      return {e.field, e.what()};
+    }
+    return {"accepted", ""};
+  };
+  const json axis = json::array({{0, 0}, {10, 0}});
+  const json square = json::array({{0, 0}, {10, 0}, {10, 10}, {0, 10}});
+  auto [f1, m1] = refusal({{"type", "check_dam"}, {"name", "d"}, {"axis", axis}, {"crest_height", 2},
+                           {"thickness", 1}, {"slit", {{"width", 1}, {"bottom", 2}}}});
+  EXPECT_EQ(f1, "structures[0].slit.bottom");
+  EXPECT_NE(m1.find("must be below crest_height (2 m)"), std::string::npos) << m1;
+  auto [f2, m2] = refusal({{"type", "retention_basin"}, {"name", "b"}, {"polygon", square}});
+  EXPECT_EQ(f2, "structures[0]");
+  EXPECT_NE(m2.find("needs depth > 0 m or wall_height > 0 m"), std::string::npos) << m2;
+  auto [f3, m3] = refusal({{"type", "retention_basin"}, {"name", "b"}, {"polygon", square}, {"wall_height", 2}});
+  EXPECT_EQ(f3, "structures[0].wall_thickness");
+  EXPECT_NE(m3.find("missing"), std::string::npos) << m3;
+  EXPECT_NE(m3.find("(0, 100]"), std::string::npos) << m3;
+  auto [f4, m4] = refusal({{"type", "retention_basin"}, {"name", "b"}, {"polygon", square}, {"depth", 1},
+                           {"open_edges", {4}}});
+  EXPECT_EQ(f4, "structures[0].open_edges[0]");
+  EXPECT_NE(m4.find("[0, 3]"), std::string::npos) << m4;
 }
 
 // The numerics rows whose defaults the scene computes state their declared ranges too.

@@ -220,6 +220,20 @@ TEST(TerrainBuild, TravelAngleStopsTheCorridorWhereTheEnergyLineMeetsTheGround) 
   EXPECT_LT(xmax, reach + 2.0 + 1.5);
 }
 
+// A structure type is its file: every registered type declares its geometry first (an axis of 2 points or a
+// polygon of 3, as `area` says) and carries its behaviour, so build_terrain and the run need no switch on it.
+TEST(TerrainStructures, EveryTypeDeclaresItsGeometryAndBehaviour) {
+  ASSERT_FALSE(structure_types().empty());
+  for (const auto* t : structure_types()) {
+    ASSERT_FALSE(t->fields.empty()) << t->name;
+    EXPECT_EQ(t->fields.front().shape, "polyline") << t->name;
+    EXPECT_EQ(t->fields.front().min_points, t->area ? 3u : 2u) << t->name;
+    EXPECT_TRUE(t->check && t->holds && t->steps) << t->name;
+    EXPECT_FALSE(t->label.empty() || t->colour.size() != 7) << t->name;
+    EXPECT_EQ(&structure_type(t->name), t) << t->name;
+  }
+}
+
 TEST(TerrainStructures, CheckDamStoresTheWedgeUpstreamOfItsFace) {
   TempDir tmp;
   Valley v;
@@ -227,11 +241,11 @@ TEST(TerrainStructures, CheckDamStoresTheWedgeUpstreamOfItsFace) {
   const double dp = 0.25, H = 3.0, t = 1.0, xd = 80.0;
   TerrainSpec spec = base_spec(v, (tmp.path / "valley.tif").string());
   StructureSpec dam;
-  dam.kind = StructureKind::check_dam;
+  dam.type = &structure_type("check_dam");
   dam.name = "Dam1";
   dam.line = {v.at(xd, 5.0), v.at(xd, 55.0)};
-  dam.crest_height = H;
-  dam.thickness = t;
+  dam.numbers["crest_height"] = H;
+  dam.numbers["thickness"] = t;
   spec.structures.push_back(dam);
   TerrainModel m = build_terrain(spec, dp);
   ASSERT_EQ(m.structures.size(), 1u);
@@ -261,13 +275,13 @@ TEST(TerrainStructures, SlitLowersTheWallToItsSill) {
   const double dp = 0.25, xd = 80.0;
   TerrainSpec spec = base_spec(v, (tmp.path / "valley.tif").string());
   StructureSpec dam;
-  dam.kind = StructureKind::check_dam;
+  dam.type = &structure_type("check_dam");
   dam.name = "SlitDam";
   dam.line = {v.at(xd, 5.0), v.at(xd, 55.0)};
-  dam.crest_height = 3.0;
-  dam.thickness = 1.0;
-  dam.slit_width = 2.0;
-  dam.slit_bottom = 1.0;
+  dam.numbers["crest_height"] = 3.0;
+  dam.numbers["thickness"] = 1.0;
+  dam.numbers["slit.width"] = 2.0;
+  dam.numbers["slit.bottom"] = 1.0;
   spec.structures.push_back(dam);
   TerrainModel m = build_terrain(spec, dp);
   const double thalweg = m.structures[0].crest_elevation - 3.0;
@@ -292,10 +306,10 @@ TEST(TerrainStructures, DepositionAreaRegradesToItsPlaneWithTheGeometricCutAndFi
   const double e = v.z(75.0, v.yc()) + 1.0;  // flat, 1 m above the thalweg at the middle
   TerrainSpec spec = base_spec(v, (tmp.path / "valley.tif").string());
   StructureSpec area;
-  area.kind = StructureKind::deposition_area;
+  area.type = &structure_type("deposition_area");
   area.name = "Flat1";
   area.line = {v.at(x1, y1), v.at(x2, y1), v.at(x2, y2), v.at(x1, y2)};
-  area.elevation = e;
+  area.numbers["elevation"] = e;
   spec.structures.push_back(area);
   TerrainModel m = build_terrain(spec, dp);
   const auto& info = m.structures[0];
@@ -316,10 +330,10 @@ TEST(TerrainStructures, DepositionAreaGradientFallsDownTheValley) {
   const double dp = 0.5;
   TerrainSpec spec = base_spec(v, (tmp.path / "valley.tif").string());
   StructureSpec area;
-  area.kind = StructureKind::deposition_area;
+  area.type = &structure_type("deposition_area");
   area.name = "Gentle";
   area.line = {v.at(60, 20.5), v.at(90, 20.5), v.at(90, 40.5), v.at(60, 40.5)};  // symmetric about the thalweg
-  area.gradient = 0.05;
+  area.numbers["gradient"] = 0.05;
   spec.structures.push_back(area);
   TerrainModel m = build_terrain(spec, dp);
   const double za = m.bed_at(v.E0 + 65.0 - m.origin_x, v.N0 + 30.0 - m.origin_y);
@@ -340,13 +354,13 @@ TEST(TerrainStructures, RetentionBasinHoldsItsExcavationAndWallsUpToTheLowestRim
   const double x1 = 70, x2 = 90, b = 20.0;  // basin 20 m x 20 m on the floor
   TerrainSpec spec = base_spec(v, (tmp.path / "floor.tif").string());
   StructureSpec basin;
-  basin.kind = StructureKind::retention_basin;
+  basin.type = &structure_type("retention_basin");
   basin.name = "Basin";
   // Vertices: edge 0 upstream (x1), edge 1 north side, edge 2 downstream (x2), edge 3 south side.
   basin.line = {v.at(x1, 20), v.at(x1, 40), v.at(x2, 40), v.at(x2, 20)};
-  basin.depth = d;
-  basin.wall_height = hw;
-  basin.wall_thickness = wt;
+  basin.numbers["depth"] = d;
+  basin.numbers["wall_height"] = hw;
+  basin.numbers["wall_thickness"] = wt;
   spec.structures.push_back(basin);
   TerrainModel m = build_terrain(spec, dp);
   const auto& info = m.structures[0];
@@ -386,22 +400,24 @@ TEST(TerrainInputs, BadInputsAreRefusedNamingTheField) {
   {  // structure outside the DEM
     TerrainSpec s = base_spec(v, dem);
     StructureSpec dam;
+    dam.type = &structure_type("check_dam");
     dam.name = "Far";
     dam.line = {v.at(80, 5), v.at(80, 500)};
-    dam.crest_height = 2, dam.thickness = 1;
+    dam.numbers["crest_height"] = 2, dam.numbers["thickness"] = 1;
     s.structures.push_back(dam);
     EXPECT_NE(field_of(s).find("structures[0] | structures[0]: 'Far': vertex"), std::string::npos) << field_of(s);
   }
   {  // overlapping structures
     TerrainSpec s = base_spec(v, dem);
     StructureSpec a;
-    a.kind = StructureKind::deposition_area;
+    a.type = &structure_type("deposition_area");
     a.name = "A";
     a.line = {v.at(60, 20), v.at(90, 20), v.at(90, 40), v.at(60, 40)};
     StructureSpec dam;
+    dam.type = &structure_type("check_dam");
     dam.name = "B";
     dam.line = {v.at(80, 5), v.at(80, 55)};
-    dam.crest_height = 2, dam.thickness = 1;
+    dam.numbers["crest_height"] = 2, dam.numbers["thickness"] = 1;
     s.structures = {a, dam};
     const std::string r = field_of(s);
     EXPECT_NE(r.find("structures[1]"), std::string::npos) << r;

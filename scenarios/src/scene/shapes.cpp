@@ -32,25 +32,50 @@ FaceMask<D> parse_faces(const Fields& f, const std::string& key, FaceMask<D> mas
   return mask;
 }
 
+namespace {
+
+FieldSpec vector_field(const std::string& key, real lo, real hi, bool lo_open, const std::string& doc) {
+  FieldSpec f = shaped_field(key, "vector", doc, false);
+  f.parameters = {{key, "m", 0.0, lo, hi, lo_open, false, false, "a component"}};
+  return f;
+}
+
+}  // namespace
+
+// The keys of a box; parse_box reads them with these ranges.
+std::vector<FieldSpec> box_fields(const std::string& what) {
+  return {vector_field("min", -1e7, 1e7, false, what + "'s lowest corner, with max (axis-aligned)"),
+          vector_field("max", -1e7, 1e7, false, what + "'s highest corner, with min: above it on every axis"),
+          vector_field("origin", -1e7, 1e7, false, what + "'s first corner, with size and angle (instead of min/max)"),
+          vector_field("size", 0.0, 1e7, true, what + "'s extent along its own axes, from origin"),
+          number_field({"angle", "degrees", 0.0, -90.0, 90.0, false, false, false,
+                        "tilt: the box's local x turned downwards by this angle about origin (with origin/size)"})};
+}
+
 // A box: either {min, max} (axis-aligned) or {origin, size, angle}.
 template <int D>
 OrientedBox<D> parse_box(const Fields& f) {
+  static const std::vector<FieldSpec> keys = box_fields("the box");
+  auto vec = [&](const std::string& key) {
+    const ParameterSpec& p = field_spec(keys, key).parameters.front();
+    return to_vec<D>(f.vector(key, D, p.lo, p.hi));  // size > 0 is checked below, naming the rule
+  };
   OrientedBox<D> box;
   if ((f.has("min") || f.has("max")) && (f.has("origin") || f.has("size") || f.has("angle")))
     throw SceneError(f.path(), "give the box either as min/max or as origin/size/angle, not both");
   if (f.has("min") || f.has("max")) {
-    const Vec<D> lo = to_vec<D>(f.vector("min", D));
-    const Vec<D> hi = to_vec<D>(f.vector("max", D));
+    const Vec<D> lo = vec("min");
+    const Vec<D> hi = vec("max");
     for (int d = 0; d < D; ++d)
       if (!(hi[d] > lo[d])) throw SceneError(f.at("max"), "must exceed min in every component");
     box.origin = lo;
     box.size = hi - lo;
   } else {
-    box.origin = to_vec<D>(f.vector("origin", D));
-    box.size = to_vec<D>(f.vector("size", D, 0.0, 1e7));
+    box.origin = vec("origin");
+    box.size = vec("size");
     for (int d = 0; d < D; ++d)
       if (!(box.size[d] > 0)) throw SceneError(f.at("size"), "every component must be > 0 m");
-    box.angle_deg = f.number_or("angle", 0.0, -90.0, 90.0);
+    box.angle_deg = read_parameter(f, field_spec(keys, "angle").parameters.front());
   }
   return box;
 }

@@ -10,11 +10,6 @@ namespace {
 using terrain::StructureSpec;
 using terrain::StructureType;
 
-// A number a structure type declares (its key, default and range from the descriptor).
-real declared(const Fields& f, const StructureType& type, const std::string& key) {
-  return read_parameter(f, field_spec(type.fields, key).parameters.front());
-}
-
 using terrain::ShapeKind;
 
 void read_corridor(const Fields& t, terrain::CorridorSpec& corridor, const ShapeSource& src) {
@@ -64,36 +59,18 @@ void read_release(const json& j, terrain::ReleaseSpec& release, const ShapeSourc
 
 // A structure's geometry: an axis is one line, an area one ring (a deposition area's plane and a basin's
 // walls on its edges have no meaning for holes or several parts).
-terrain::Polyline read_line(const Fields& f, const StructureType& type, const std::string& key, const ShapeSource& src) {
-  const size_t min_points = field_spec(type.fields, key).min_points;
-  return read_shape(f.raw(key), f.at(key), min_points, min_points < 3 ? ShapeKind::line : ShapeKind::polygon, src);
+terrain::Polyline read_line(const Fields& f, const FieldSpec& field, const ShapeSource& src) {
+  return read_shape(f.raw(field.key), f.at(field.key), field.min_points,
+                    field.min_points < 3 ? ShapeKind::line : ShapeKind::polygon, src);
 }
 
-void read_check_dam(const Fields& f, const StructureType& type, StructureSpec& st, const ShapeSource& src) {
-  st.line = read_line(f, type, "axis", src);
-  st.crest_height = declared(f, type, "crest_height");
-  st.thickness = declared(f, type, "thickness");
-  if (!f.has("slit")) return;
-  const auto& members = field_spec(type.fields, "slit").parameters;
-  Fields sl(f.raw("slit"), f.at("slit"), {"width", "bottom"});
-  st.slit_width = read_parameter(sl, parameter_spec(members, "width"));
-  st.slit_bottom = read_parameter(sl, parameter_spec(members, "bottom"));
-  if (st.slit_bottom >= st.crest_height)
-    throw SceneError(sl.at("bottom"), "must be below crest_height (" + fmt(st.crest_height) + " m)");
-}
-
-void read_deposition_area(const Fields& f, const StructureType& type, StructureSpec& st, const ShapeSource& src) {
-  st.line = read_line(f, type, "polygon", src);
-  if (f.has("elevation")) st.elevation = declared(f, type, "elevation");
-  st.gradient = declared(f, type, "gradient");
-}
-
-std::vector<int> read_open_edges(const Fields& f, size_t vertices) {
-  const json& oe = f.raw("open_edges");
-  if (!oe.is_array()) throw SceneError(f.at("open_edges"), "must be an array of edge indices");
+// Indices of the geometry's edges (edge k joins vertex k to vertex k+1).
+std::vector<int> read_edge_indices(const Fields& f, const std::string& key, size_t vertices) {
+  const json& oe = f.raw(key);
+  if (!oe.is_array()) throw SceneError(f.at(key), "must be an array of edge indices");
   std::vector<int> edges;
   for (size_t q = 0; q < oe.size(); ++q) {
-    const std::string ef = f.at("open_edges") + "[" + std::to_string(q) + "]";
+    const std::string ef = f.at(key) + "[" + std::to_string(q) + "]";
     if (!oe[q].is_number_integer() || oe[q].get<long>() < 0 || oe[q].get<long>() >= static_cast<long>(vertices))
       throw SceneError(ef, "must be an edge index in [0, " + std::to_string(vertices - 1) +
                                "] (edge k joins vertex k to vertex k+1)");
@@ -102,28 +79,28 @@ std::vector<int> read_open_edges(const Fields& f, size_t vertices) {
   return edges;
 }
 
-void read_retention_basin(const Fields& f, const StructureType& type, StructureSpec& st, const ShapeSource& src) {
-  st.line = read_line(f, type, "polygon", src);
-  st.depth = declared(f, type, "depth");
-  st.wall_height = declared(f, type, "wall_height");
-  if (!(st.depth > 0) && !(st.wall_height > 0))
-    throw SceneError(f.path(), "a retention basin needs depth > 0 m or wall_height > 0 m (or both)");
-  if (st.wall_height > 0) {
-    const ParameterSpec& p = field_spec(type.fields, "wall_thickness").parameters.front();
-    st.wall_thickness = f.number(p.key, p.lo, p.hi, p.lo_open, p.hi_open);  // required with a wall
+// The keys a structure type declares into its StructureSpec, by their shapes; then its rules across keys.
+void read_structure_fields(const Fields& f, const StructureType& type, StructureSpec& st, const ShapeSource& src) {
+  for (const FieldSpec& field : type.fields) {
+    if (field.shape == "polyline") {
+      st.line = read_line(f, field, src);
+    } else if (field.shape == "number") {
+      const ParameterSpec& p = field.parameters.front();
+      if (field.default_text.empty() || f.has(p.key)) st.numbers[p.key] = read_parameter(f, p);
+    } else if (field.shape == "object") {
+      if (!f.has(field.key)) continue;
+      std::set<std::string> members;
+      for (const auto& p : field.parameters) members.insert(p.key);
+      Fields o(f.raw(field.key), f.at(field.key), members);
+      for (const auto& p : field.parameters) st.numbers[field.key + "." + p.key] = read_parameter(o, p);
+    } else if (field.shape == "indices") {
+      if (f.has(field.key)) st.indices[field.key] = read_edge_indices(f, field.key, st.line.size());
+    } else {
+      throw std::logic_error("structure field '" + field.key + "' of a shape the scene reader does not read");
+    }
   }
-  if (f.has("open_edges")) st.open_edges = read_open_edges(f, st.line.size());
-}
-
-// The scene side of each structure type: its fields into a StructureSpec, with the rules across fields.
-using StructureReader = void (*)(const Fields&, const StructureType&, StructureSpec&, const ShapeSource&);
-StructureReader structure_reader(terrain::StructureKind kind) {
-  switch (kind) {
-    case terrain::StructureKind::check_dam: return read_check_dam;
-    case terrain::StructureKind::deposition_area: return read_deposition_area;
-    case terrain::StructureKind::retention_basin: return read_retention_basin;
-  }
-  throw std::logic_error("structure kind without a scene reader");
+  if (const auto problem = type.check(st))
+    throw SceneError(problem->key.empty() ? f.path() : f.at(problem->key), problem->message);
 }
 
 // Keys of an object describing one of `types` (each type's fields, and "type" and "name").
@@ -145,8 +122,8 @@ StructureSpec read_structure(const json& s, const std::string& path, std::set<st
   StructureSpec st;
   st.name = f.string("name");
   if (!names.insert(st.name).second) throw SceneError(f.at("name"), "duplicate structure name '" + st.name + "'");
-  st.kind = type.kind;
-  structure_reader(type.kind)(f, type, st, src);
+  st.type = &type;
+  read_structure_fields(f, type, st, src);
   return st;
 }
 

@@ -7,8 +7,8 @@
 
 namespace runout {
 
-// JSON Schema (2020-12) of a scene. Materials, monitors and structures are described in full (one alternative
-// per rheology, monitor type and structure type, with each key's unit, default, range and doc), and the
+// JSON Schema (2020-12) of a scene. Materials, boundaries, monitors and structures are described in full (one
+// alternative per rheology, boundary type, monitor type and structure type, with each key's unit, default, range and doc), and the
 // numerics' keys; the other sections name their accepted keys' types only.
 nlohmann::json scene_schema();
 
@@ -17,6 +17,8 @@ std::string material_parameter_tables();
 // Between its "monitor-types" and "structure-types" markers: one table per monitor type and structure type.
 std::string monitor_type_tables();
 std::string structure_type_tables();
+// Between its "boundary-types" markers: the keys every boundary has, and one table per boundary type.
+std::string boundary_type_tables();
 // Between its "intensity-thresholds" markers: output.intensity's keys (terrain::intensity_parameters()).
 std::string intensity_parameter_table();
 

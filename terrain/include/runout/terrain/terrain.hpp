@@ -6,6 +6,7 @@
 // (snapshots add the origin back, in Float64).
 #include <array>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -49,38 +50,49 @@ struct ReleaseSpec {
   double inflow_length = 0.0;
 };
 
-enum class StructureKind { check_dam, deposition_area, retention_basin };
-const char* kind_name(StructureKind kind);
+struct StructureType;
 
+// One structure as a scene places it: its type, its geometry and the numbers its type declares.
 struct StructureSpec {
-  StructureKind kind = StructureKind::check_dam;
+  const StructureType* type = nullptr;
   std::string name;
-  Polyline line;  // check dam: the axis; deposition area and basin: the polygon
-  // check dam
-  double crest_height = 0.0;  // above the lowest bed point on the axis
-  double thickness = 0.0;
-  double slit_width = 0.0;    // 0 = no slit
-  double slit_bottom = 0.0;   // height of the slit's sill above the lowest bed point
-  // deposition area: the bed inside becomes a plane through the centroid at `elevation` (default: mean
-  // ground elevation inside) falling at `gradient` (m/m, default 0) along the ground's mean downhill direction
-  std::optional<double> elevation;
-  double gradient = 0.0;
-  // retention basin: bed lowered by `depth` inside, a wall of `wall_height` and `wall_thickness` on the
-  // edges except the open ones (default: the edge whose midpoint is highest, where the flow comes in)
-  double depth = 0.0;
-  double wall_height = 0.0;
-  double wall_thickness = 0.0;
-  std::optional<std::vector<int>> open_edges;
+  Polyline line;  // the type's geometry: an axis (a line) or a polygon
+  // The type's numbers by key, an object's members as "object.member" ("slit.width"); a number whose default
+  // the type computes (a deposition area's elevation) is absent when the scene leaves it out.
+  ParameterValues numbers;
+  std::map<std::string, std::vector<int>> indices;  // its "indices" fields as given (a basin's open_edges)
+  double number(const std::string& key) const;  // 0 when absent
+  bool has(const std::string& key) const { return numbers.count(key) > 0; }
+};
+struct StructureInfo;
+namespace detail {
+struct StructureSteps;  // what a type does on the bed grid (terrain/src/structures/), private to this library
+}
+
+// A rule across a structure's keys that their ranges cannot say, broken: the key at fault, relative to the
+// structure ("slit.bottom"; "" for the structure as a whole), and why.
+struct StructureProblem {
+  std::string key;
+  std::string message;
 };
 
-// A structure type as a scene names it: its name, one line of doc and its keys (geometry and numbers, each
-// declared once), read by the scene parser, `runout schema` and docs/scene-format.md. One descriptor per kind
-// in terrain/src/structure_types.cpp, listed once in structure_types().
+// A structure type: its name, one line of doc and its keys (geometry and numbers, each declared once; read by
+// the scene parser, `runout schema` and docs/scene-format.md), and its behaviour. One file per type under
+// terrain/src/structures/, listed once in structure_types() (structure_types.cpp).
 struct StructureType {
-  StructureKind kind;
-  std::string name;  // == kind_name(kind)
+  std::string name;
   std::string doc;
-  std::vector<FieldSpec> fields;  // besides "type" and "name"
+  std::vector<FieldSpec> fields;  // besides "type" and "name"; the first "polyline" field is its geometry
+  bool area = false;              // its geometry is a polygon (false: an axis, drawn and laid as a line)
+  std::string label;              // in words, for map legends
+  std::string colour;             // "#rrggbb" of its map style (areas)
+  // The first rule across its keys that `s` breaks, or nothing.
+  std::optional<StructureProblem> (*check)(const StructureSpec& s) = nullptr;
+  // Whether flow at map (x, y) and elevation z counts as held by the structure at the end of a run.
+  // below_rim = false: what it held back at any height (a check dam's upstream wedge, reported besides).
+  bool (*holds)(const StructureInfo& st, double x, double y, double z, bool below_rim) = nullptr;
+  bool reports_upstream = false;  // metrics give its held flow at any height too (upstream_volume_m3)
+  const detail::StructureSteps* steps = nullptr;
 };
 const std::vector<const StructureType*>& structure_types();
 // Throws std::invalid_argument for an unknown name.
@@ -103,7 +115,7 @@ struct TerrainSpec {
 
 struct StructureInfo {
   std::string name;
-  StructureKind kind;
+  const StructureType* type = nullptr;
   uint32_t tag = 0;           // boundary tag of its wall particles (0 if it has no wall)
   Polyline outline;           // map coordinates: the axis (dam) or the polygon
   double cut_volume = 0.0;    // [m3] ground removed (regrading, excavation)
@@ -111,6 +123,7 @@ struct StructureInfo {
   double crest_elevation = 0.0;  // dam crest / basin wall top (lowest), [m]
   double storage_capacity = 0.0; // [m3] volume the structure holds up to its crest/rim, from the bed grid
   double wall_height_built = 0.0; // [m] wall particles' crest above the local bed at its lowest point
+  double wall_thickness = 0.0;    // [m] as the scene gives it (0: no wall)
   // Horizontal unit vector the flow pushes the structure along (map axes): a dam's downstream normal, a
   // basin's mean downhill direction. Zero for a deposition area.
   std::array<double, 2> flow_normal{0.0, 0.0};
