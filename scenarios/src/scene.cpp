@@ -26,40 +26,6 @@ void check_fidelity(const Fields& top, real dp) {
   }
 }
 
-// output.intensity: the intensity classes' thresholds (terrain::intensity_parameters()), medium below high.
-terrain::IntensityThresholds read_intensity(const Fields& out) {
-  terrain::IntensityThresholds t;
-  if (!out.has("intensity")) return t;
-  const auto& specs = terrain::intensity_parameters();
-  std::set<std::string> keys;
-  for (const auto& p : specs) keys.insert(p.key);
-  Fields f(out.raw("intensity"), out.at("intensity"), keys);
-  t.high_depth = read_parameter(f, parameter_spec(specs, "high_depth"));
-  t.high_hv = read_parameter(f, parameter_spec(specs, "high_hv"));
-  t.medium_depth = read_parameter(f, parameter_spec(specs, "medium_depth"));
-  t.medium_hv = read_parameter(f, parameter_spec(specs, "medium_hv"));
-  if (!(t.medium_depth < t.high_depth))
-    throw SceneError(f.at("medium_depth"), "must be below high_depth (" + fmt(t.high_depth) + " m)");
-  if (!(t.medium_hv < t.high_hv))
-    throw SceneError(f.at("medium_hv"), "must be below high_hv (" + fmt(t.high_hv) + " m2/s)");
-  return t;
-}
-
-OutputSettings read_output(const json& j, real duration) {
-  Fields out(j.contains("output") ? j["output"] : json::object(), "output",
-             {"series_interval", "snapshot_interval", "inundation_threshold", "rest_speed", "rest_time", "rest_quantile",
-              "intensity"});
-  OutputSettings o;
-  o.series_interval = out.number_or("series_interval", std::min(0.01, duration / 100.0), 0.0, 1e4, true);
-  o.snapshot_interval = out.number_or("snapshot_interval", 0.0, 0.0, 1e4);
-  o.inundation_threshold = out.number_or("inundation_threshold", 0.1, 0.0, 100.0, true);
-  o.rest_speed = out.number_or("rest_speed", 0.0, 0.0, 100.0);
-  o.rest_time = out.number_or("rest_time", 1.0, 0.0, 1e4, true);
-  o.rest_quantile = out.number_or("rest_quantile", 1.0, 0.0, 1.0, true);
-  o.intensity = read_intensity(out);
-  return o;
-}
-
 template <int D>
 Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
   Build<D> b(j, scene, base_dir);

@@ -55,31 +55,6 @@ json geometry_schema(size_t min_points, const std::string& doc) {
   return {{"anyOf", {point_array(min_points), layer_ref_schema()}}, {"description", doc}};
 }
 
-json number_object(const std::vector<ParameterSpec>& specs, const std::string& doc) {
-  json props = json::object();
-  for (const auto& p : specs) props[p.key] = number_schema(p);
-  return {{"type", "object"}, {"properties", props}, {"additionalProperties", false}, {"description", doc}};
-}
-
-json output_schema() {
-  return {{"type", "object"},
-          {"properties",
-           {{"series_interval", {{"type", "number"}}},
-            {"snapshot_interval", {{"type", "number"}}},
-            {"inundation_threshold", {{"type", "number"}}},
-            {"rest_speed", {{"type", "number"}, {"minimum", 0}, {"maximum", 100},
-                            {"description", "m/s: the run ends once every flow particle has stayed slower for "
-                                            "rest_time; 0 runs the whole duration"}}},
-            {"rest_time", {{"type", "number"}, {"exclusiveMinimum", 0}, {"maximum", 10000},
-                           {"description", "s: how long the flow must stay under rest_speed"}}},
-            {"rest_quantile", {{"type", "number"}, {"exclusiveMinimum", 0}, {"maximum", 1},
-                               {"description", "share of the flow particles that must be slower than rest_speed; "
-                                               "1 (default) waits for every one"}}},
-            {"intensity", number_object(terrain::intensity_parameters(),
-                                        "terrain scenes: thresholds of the intensity.tif classes")}}},
-          {"additionalProperties", false}};
-}
-
 json release_schema() {
   const std::string doc = "the release area: polygons, holes allowed (no material in a hole)";
   const json table = {{"type", "array"},
@@ -155,6 +130,12 @@ json typed_schema(const std::string& name, const std::string& doc, const std::ve
     if (f.required && f.dimensions == 0) required.push_back(f.key);
   }
   return {{"type", "object"}, {"properties", props}, {"required", required}, {"additionalProperties", false}};
+}
+
+json output_schema() {
+  json props = json::object();
+  for (const auto& f : scene_reader::output_fields()) props[f.key] = field_schema(f);
+  return {{"type", "object"}, {"properties", props}, {"additionalProperties", false}};
 }
 
 json monitors_schema() {
@@ -337,12 +318,10 @@ std::string type_tables(const Types& types) {
 
 std::string monitor_type_tables() { return type_tables(monitor_types()); }
 
-std::string intensity_parameter_table() {
+std::string output_field_table() {
   std::ostringstream s;
-  s << "| field | default | unit | accepted | meaning |\n|---|---|---|---|---|\n";
-  for (const auto& p : terrain::intensity_parameters())
-    s << "| `intensity." << p.key << "` | `" << format_number(p.default_value) << "` | " << p.unit << " | "
-      << range_text(p) << " | " << cell(p.doc) << " |\n";
+  s << "| field | shape | default | unit | accepted | meaning |\n|---|---|---|---|---|---|\n";
+  for (const auto& f : scene_reader::output_fields()) field_rows(s, f);
   return s.str();
 }
 std::string structure_type_tables() { return type_tables(terrain::structure_types()); }

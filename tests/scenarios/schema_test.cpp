@@ -154,9 +154,7 @@ void check_generated_block(const std::string& marker, const std::string& want) {
 TEST(Schema, DocsMonitorTablesMatchTheDescriptors) { check_generated_block("monitor-types", monitor_type_tables()); }
 
 TEST(Schema, DocsBoundaryTablesMatchTheDescriptors) { check_generated_block("boundary-types", boundary_type_tables()); }
-TEST(Schema, DocsIntensityTableMatchesTheDescriptors) {
-  check_generated_block("intensity-thresholds", intensity_parameter_table());
-}
+TEST(Schema, DocsOutputTableMatchesTheDescriptors) { check_generated_block("output-fields", output_field_table()); }
 TEST(Schema, DocsStructureTablesMatchTheDescriptors) {
   check_generated_block("structure-types", structure_type_tables());
 }

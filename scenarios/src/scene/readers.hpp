@@ -172,6 +172,10 @@ struct ShapeSource {
 terrain::Polyline read_shape(const json& v, const std::string& field, size_t min_points, terrain::ShapeKind kind,
                              const ShapeSource& source);
 
+// The output section's keys (output.cpp), and the section read with them.
+const std::vector<FieldSpec>& output_fields();
+OutputSettings read_output(const json& j, real duration);
+
 // "name[k]" for an element of an array section.
 inline std::string item(const std::string& section, size_t k) { return section + "[" + std::to_string(k) + "]"; }
 

@@ -19,7 +19,7 @@ std::string monitor_type_tables();
 std::string structure_type_tables();
 // Between its "boundary-types" markers: the keys every boundary has, and one table per boundary type.
 std::string boundary_type_tables();
-// Between its "intensity-thresholds" markers: output.intensity's keys (terrain::intensity_parameters()).
-std::string intensity_parameter_table();
+// Between its "output-fields" markers: the output section's keys, output.intensity's members among them.
+std::string output_field_table();
 
 }  // namespace runout
