@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
+#include "runout/scenarios/scene_refs.hpp"
 #include "runout/scenarios/scene.hpp"
 #include "runout/scenarios/store.hpp"
 #include "runout/scenarios/sweep.hpp"
@@ -61,9 +62,7 @@ TradeoffSpec tradeoff_spec(const TradeoffArgs& c) {
     spec.base_json = text;
     spec.base_dir = fs::path(c.file).parent_path();
     spec.variant.name = "scene";
-    if (j.contains("structures") && j["structures"].is_array())
-      for (const auto& s : j["structures"])
-        if (s.contains("name") && s["name"].is_string()) spec.variant.structures.push_back(s["name"]);
+    spec.variant.structures = structure_names(j);
     spec.name = j.value("name", fs::path(c.file).stem().string());
   }
   spec.levels = c.levels.empty() ? std::vector<std::string>{"draft", "standard", "fine"} : c.levels;

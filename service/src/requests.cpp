@@ -11,6 +11,7 @@
 
 #include "runout/scenarios/cost_model.hpp"
 #include "runout/scenarios/scene.hpp"
+#include "runout/scenarios/scene_refs.hpp"
 #include "runout/scenarios/sweep.hpp"
 #include "runout/common/sha256.hpp"
 
@@ -82,55 +83,17 @@ void check_scene_name(const json& scene, const std::string& field) {
 }
 
 // The parts of a scene that resolve_variant reads, checked so that it cannot throw on a wrong type.
-// The files a scene reads, with their fields: terrain.dem and every layer reference's "layer" (vector inputs,
-// docs/scene-format.md), wherever it stands.
-void layer_files(const json& j, const std::string& field, std::vector<std::pair<std::string, const json*>>& out) {
-  if (j.is_object()) {
-    if (j.contains("layer")) out.emplace_back(field + ".layer", &j["layer"]);
-    for (auto it = j.begin(); it != j.end(); ++it) layer_files(it.value(), at(field, it.key()), out);
-  } else if (j.is_array()) {
-    for (size_t k = 0; k < j.size(); ++k) layer_files(j[k], field + "[" + std::to_string(k) + "]", out);
-  }
-}
-
-std::vector<std::pair<std::string, const json*>> scene_files(const json& scene, const std::string& path) {
-  std::vector<std::pair<std::string, const json*>> out;
-  if (scene.contains("terrain") && scene["terrain"].is_object() && scene["terrain"].contains("dem"))
-    out.emplace_back(at(path, "terrain.dem"), &scene["terrain"]["dem"]);
-  for (const char* key : {"terrain", "release", "structures", "protected_zones", "monitors"})
-    if (scene.contains(key)) layer_files(scene[key], at(path, key), out);
-  return out;
-}
-
 void check_resolvable(const json& scene, const std::string& path) {
   if (scene.contains("dp") && !scene["dp"].is_number())
     throw ApiError(422, at(path, "dp"), "must be a number in [0.0001, 100]");
   check_scene_name(scene, at(path, "name"));
-  for (const char* key : {"structures", "monitors"}) {
-    if (!scene.contains(key)) continue;
-    const json& a = scene[key];
-    if (!a.is_array()) throw ApiError(422, at(path, key), "must be an array of objects");
-    for (size_t k = 0; k < a.size(); ++k) {
-      const std::string f = at(path, key) + "[" + std::to_string(k) + "]";
-      if (!a[k].is_object()) throw ApiError(422, f, "must be an object");
-      for (const char* name : {"name", "type", "structure"})
-        if (a[k].contains(name) && !a[k][name].is_string()) throw ApiError(422, f + "." + name, "must be a string");
-    }
-  }
-  if (scene.contains("numerics") && !scene["numerics"].is_object())
-    throw ApiError(422, at(path, "numerics"), "must be an object of numerics fields");
-  if (scene.contains("fidelity")) {
-    const json& f = scene["fidelity"];
-    if (!f.is_object()) throw ApiError(422, at(path, "fidelity"), "must be an object with draft, standard, fine presets");
-    for (auto it = f.begin(); it != f.end(); ++it) {
-      if (!it.value().is_object())
-        throw ApiError(422, at(path, "fidelity") + "." + it.key(), "must be an object {dp, numerics}");
-      if (it.value().contains("numerics") && !it.value()["numerics"].is_object())
-        throw ApiError(422, at(path, "fidelity") + "." + it.key() + ".numerics", "must be an object of numerics fields");
-    }
+  try {
+    check_scene_shapes(scene, path);
+  } catch (const SceneError& e) {
+    throw ApiError(422, e.field, std::string(e.what()).substr(e.field.size() + 2));
   }
   // File names (the DEM and every vector layer): relative, inside the service's scene directory.
-  for (const auto& [field, value] : scene_files(scene, path)) {
+  for (const auto& [field, value] : scene_file_fields(scene, path)) {
     if (!value->is_string()) throw ApiError(422, field, "must be a file name relative to the service's scene directory");
     const std::filesystem::path p = value->get<std::string>();
     bool dotdot = false;
@@ -140,14 +103,6 @@ void check_resolvable(const json& scene, const std::string& path) {
                      "must be a relative file name inside the service's scene directory (--scene-dir; no '..', not "
                      "absolute)");
   }
-}
-
-std::vector<std::string> candidates(const json& scene) {
-  std::vector<std::string> out;
-  if (scene.contains("structures") && scene["structures"].is_array())
-    for (const auto& s : scene["structures"])
-      if (s.is_object() && s.contains("name") && s["name"].is_string()) out.push_back(s["name"].get<std::string>());
-  return out;
 }
 
 std::string join(const std::vector<std::string>& v) {
@@ -232,7 +187,7 @@ void record_built_scene(const Scene& s, JobSpec& spec) {
 // relative target against the server's working directory.
 void check_contained(const json& scene, const std::string& path, const Limits& limits) {
   namespace fs = std::filesystem;
-  for (const auto& [field, value] : scene_files(scene, path)) {
+  for (const auto& [field, value] : scene_file_fields(scene, path)) {
     if (!value->is_string()) continue;
     const std::string name = value->get<std::string>();
     std::error_code ec;
@@ -296,7 +251,7 @@ void validate_resolved(const std::string& resolved, const std::string& path, con
 JobSpec make_job(const json& base, const std::string& path, const std::optional<std::vector<std::string>>& layout,
                  const std::string& variant, const Fidelity& fidelity, const Limits& limits,
                  const std::vector<ParameterValue>& parameters = {}, bool check = true, JobSpec spec = {}) {
-  const auto cands = candidates(base);
+  const auto cands = structure_names(base);
   SweepVariant v;
   v.name = variant;
   v.structures = layout ? *layout : cands;
@@ -418,13 +373,13 @@ bool safe_file_name(const std::string& name) {
 
 std::string rebase_scene_files(const std::string& scene_json, const std::filesystem::path& folder) {
   json scene = json::parse(scene_json);
-  for (const auto& [field, value] : scene_files(scene, "")) {
+  for (const auto& [field, value] : scene_file_fields(scene, "")) {
     if (!value->is_string()) continue;  // the validator names it
     const std::filesystem::path name = value->get<std::string>();
     const std::filesystem::path rebased = (folder / name).lexically_normal();
     if (name.is_absolute() || rebased.empty() || *rebased.begin() == "..")
       throw std::invalid_argument(field + ": '" + name.string() + "' is not inside the scene directory");
-    *const_cast<json*>(value) = rebased.generic_string();  // scene is ours: scene_files lists its own members
+    *const_cast<json*>(value) = rebased.generic_string();  // scene is ours: scene_file_fields lists its own members
   }
   return scene.dump();
 }
@@ -433,7 +388,7 @@ NewScene parse_scene_request(const std::string& body, const Limits& limits, cons
   const json scene = parse_body(body);
   check_resolvable(scene, "");
   NewScene out;
-  out.structures = candidates(scene);
+  out.structures = structure_names(scene);
   // Checked at draft fidelity without structures and with each candidate structure alone (candidates may
   // exclude each other, e.g. overlap: a layout is checked when a job or sweep names it, at its fidelity).
   Fidelity draft;
@@ -485,9 +440,9 @@ JobSpec parse_job_request(const std::string& body, const Limits& limits, const J
     });
   std::optional<std::vector<std::string>> layout;
   if (b && j.contains("structures"))  // a layout is checked against its base's candidates
-    errors.check([&] { layout = parse_structures(j["structures"], "structures", candidates(b->scene)); });
+    errors.check([&] { layout = parse_structures(j["structures"], "structures", structure_names(b->scene)); });
   errors.raise();
-  const auto cands = candidates(b->scene);
+  const auto cands = structure_names(b->scene);
   if (!j.contains("variant")) {
     const auto& s = layout ? *layout : cands;
     for (const auto& n : s) variant += (variant.empty() ? "" : "+") + n;
@@ -629,9 +584,9 @@ NewSweep parse_sweep_request(const std::string& body, const Limits& limits, cons
   if (j.contains("variants") == j.contains("factorial"))
     errors.add(ApiError(422, "variants", "give exactly one of variants (explicit layouts) or factorial (all subsets)"));
   else if (base && j.contains("factorial"))
-    variants = parse_factorial(j["factorial"], candidates(base->scene), errors);
+    variants = parse_factorial(j["factorial"], structure_names(base->scene), errors);
   else if (base)
-    variants = parse_variants(j["variants"], candidates(base->scene), errors);
+    variants = parse_variants(j["variants"], structure_names(base->scene), errors);
   errors.raise();
   const Base& b = *base;
   out.scene_id = b.scene_id;
