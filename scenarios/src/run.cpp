@@ -139,6 +139,9 @@ class TerrainWatch {
   // SimulationError naming the first misplaced particle and how many there are.
   void check(Solver<D>& solver, real t) {
     if constexpr (D == 3) {
+      // What has been released so far: a hydrograph's inflow as it enters (with the initial mass alone, a
+      // hydrograph release would never reach max_outflow).
+      released_mass_ = static_cast<double>(solver.mass_balance().total_initial() + solver.mass_balance().total_inflow());
       const ParticleArrays<D>& f = solver.fluid();
       size_t count = 0, first = 0;
       std::string why;
@@ -177,7 +180,6 @@ class TerrainWatch {
       }
     }
   }
-  void set_released_mass(double kg) { released_mass_ = kg; }
   double outflow_fraction() const { return released_mass_ > 0 ? outflow_mass_ / released_mass_ : 0.0; }
   // metrics.json's terrain.corridor_outflow.
   json corridor_outflow() const {
@@ -659,7 +661,6 @@ template <int D>
 void record_start(const Scene& scene, Solver<D>& solver, RunSeries<D>& series, TerrainWatch<D>& watch,
                   Snapshots<D>& snapshots, LoopState& loop) {
   if (watch.active()) {
-    watch.set_released_mass(static_cast<double>(solver.mass_balance().total_initial()));
     watch.check(solver, 0.0);
     watch.update(solver.fluid(), solver.materials(), solver.time());
   }

@@ -160,7 +160,11 @@ class ScreeningWatch {
     for (size_t k = 0; k < p.size(); ++k)
       if (!gone_[p.id[k]] && std::isnan(tm_.bed_at(p.x[k], p.y[k]))) {
         gone_[p.id[k]] = 1, gone_volume_ += p.volume[k], ++gone_count_;
-        if (gone_count_ == 1) first_gone_ = {m.time(), p.x[k] + tm_.origin_x, p.y[k] + tm_.origin_y};
+        // Over the corridor's edge, as the 3D run counts it (TerrainModel::off_corridor): not through a face of
+        // the corridor's box on the DEM's edge, where the model ends whatever the corridor.
+        if (!tm_.off_corridor(Vec<3>(p.x[k], p.y[k], 0.0))) continue;
+        corridor_volume_ += p.volume[k], ++corridor_count_;
+        if (corridor_count_ == 1) first_gone_ = {m.time(), p.x[k] + tm_.origin_x, p.y[k] + tm_.origin_y};
       }
     update_grid(m);
     std::vector<real> speed = speeds(m);
@@ -185,12 +189,14 @@ class ScreeningWatch {
   size_t gone_count() const { return gone_count_; }
   const terrain::InundationGrid& grid() const { return grid_; }
   std::string csv() const { return csv_.str(); }
+  // What left over the corridor's edge (terrain.corridor.max_outflow bounds it); the DEM's edge not counted.
+  double corridor_volume() const { return corridor_volume_; }
   json corridor_outflow(double released) const {
-    json j = {{"particles", gone_count_},
-              {"mass_kg", gone_volume_ * settings_.density},
-              {"fraction", released > 0 ? gone_volume_ / released : 0.0},
+    json j = {{"particles", corridor_count_},
+              {"mass_kg", corridor_volume_ * settings_.density},
+              {"fraction", released > 0 ? corridor_volume_ / released : 0.0},
               {"max_fraction", tm_.max_corridor_outflow}};
-    if (gone_count_) j["first_time_s"] = first_gone_[0], j["first_point"] = {first_gone_[1], first_gone_[2]};
+    if (corridor_count_) j["first_time_s"] = first_gone_[0], j["first_point"] = {first_gone_[1], first_gone_[2]};
     return j;
   }
 
@@ -220,8 +226,8 @@ class ScreeningWatch {
   terrain::InundationGrid grid_;
   FlowOnGrid flow_;
   std::vector<char> gone_;  // by particle id
-  double gone_volume_ = 0;
-  size_t gone_count_ = 0;
+  double gone_volume_ = 0, corridor_volume_ = 0;  // off the model; of it, over the corridor's edge
+  size_t gone_count_ = 0, corridor_count_ = 0;
   std::array<double, 3> first_gone_{};
   std::ostringstream csv_;
 };
@@ -333,10 +339,10 @@ std::string step_to_end(const Scene& scene, const ScreeningSettings& s, const Ru
     }
     watch.sample(model);
     gauges.sample(model);
-    if (watch.gone_volume() > 0 && watch.gone_volume() > scene.terrain->max_corridor_outflow * released) {
+    if (watch.corridor_volume() > 0 && watch.corridor_volume() > scene.terrain->max_corridor_outflow * released) {
       std::ostringstream m;
       m.precision(3);
-      m << "flow left the modelled corridor: " << 100.0 * watch.gone_volume() / released
+      m << "flow left the modelled corridor: " << 100.0 * watch.corridor_volume() / released
         << " % of the released volume by t = " << model.time() << " s (terrain.corridor.max_outflow = "
         << scene.terrain->max_corridor_outflow
         << ", accepted range [0, 1]): widen terrain.corridor (buffer, travel_angle or polygon)";
@@ -489,7 +495,8 @@ RunSummary run_screening(const Scene& scene, const RunOptions& opt) {
     m["warnings"].push_back("the screening model writes no snapshots or checkpoints (asked for)");
   if (watch.gone_count() > 0 && sum.status != "failed")
     m["warnings"].push_back(std::to_string(watch.gone_count()) +
-                            " particle(s) left the modelled corridor and were left out of the outputs");
+                            " particle(s) left the model (over the corridor's edge or the DEM's) and were left out "
+                            "of the outputs");
   sum.metrics_json = m.dump(2);
   run_outputs::write_file_atomically(opt.out_dir / "metrics.json", sum.metrics_json + "\n");
   return sum;

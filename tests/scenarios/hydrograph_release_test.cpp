@@ -121,6 +121,22 @@ TEST(HydrographRelease, EntersFromTheUphillSideOnTheBedAndBringsInItsIntegral) {
   EXPECT_EQ(passed["above"], 0.0);
 }
 
+// The corridor's limit binds a hydrograph release too: what leaves over the corridor's edge is measured against
+// what has entered (against the initial mass alone, zero for a hydrograph, the 1 % limit could never bind). The
+// corridor here ends 1 m below the line, 3 m short of the DEM's end; the run of the test above passes 2.5 m.
+TEST(HydrographRelease, FlowOverTheCorridorsEdgeCountsAgainstWhatHasEntered) {
+  TempDir tmp;
+  json scene = slope_scene({{"discharge", {{0, 0}, {0.1, 0.12}, {0.5, 0}}}});
+  scene["terrain"]["corridor"]["polygon"] = {map_point(0.1, 0.1), map_point(2.0, 0.1), map_point(2.0, 1.9),
+                                             map_point(0.1, 1.9)};
+  RunOptions opt;
+  opt.out_dir = tmp.path / "run";
+  opt.threads = 1;
+  const RunSummary sum = run_scene(tmp.load(scene), opt);
+  EXPECT_EQ(sum.status, "failed");
+  EXPECT_NE(sum.error.find("flow left the modelled corridor"), std::string::npos) << sum.error;
+}
+
 TEST(HydrographRelease, AVolumeAndDurationIsASurgeOfThatVolume) {
   TempDir tmp;
   // A surge of 0.02 m3 over 0.4 s: the peak 2 V / T = 0.1 m3/s at once, falling to 0 at T.

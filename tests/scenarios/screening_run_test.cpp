@@ -243,6 +243,22 @@ TEST(ScreeningRun, DISABLED_FlowWithoutTheDamPassesTheAxisWithinTheCorridor) {
   EXPECT_GT(road(free), 0.0);
 }
 
+// Flow that leaves through the DEM's edge leaves the model as it does in the 3D run (TerrainModel::off_corridor):
+// outflow, not a corridor too narrow. The limit counts only what crosses the corridor's edge inside the DEM, so
+// the free flow that fails the 1 % limit over a corridor 1 m inside the DEM (the known failure above) completes
+// when the corridor is the whole DEM, and what left at the channel's end is outflow.
+TEST(ScreeningRun, FlowPastTheDemsEdgeIsOutflowNotACorridorTooNarrow) {
+  const fs::path dir = fresh_dir("dem_edge");
+  const double v = 0.5 * dam_storage(dir);
+  json s = channel_scene(v, 10, 4, false);
+  s["terrain"]["corridor"]["polygon"] = rect(0, kChLength, 0, kChWidth);
+  const json m = run_in(dir, s);
+  std::printf("  corridor = the DEM: %ld particles over the corridor's edge, %.1f kg left of %.1f kg released\n",
+              m["terrain"]["corridor_outflow"]["particles"].get<long>(), m["mass"]["outflow_kg"].get<double>(), 2000 * v);
+  EXPECT_EQ(m["terrain"]["corridor_outflow"]["particles"].get<long>(), 0);
+  EXPECT_GT(m["mass"]["outflow_kg"].get<double>(), 0.01 * 2000 * v);
+}
+
 // (b') declared after (b)'s run, before its own: a nearly frictionless flow (mu 0.05) levels behind the dam as
 // the storage assumes; the channel's end open (max_outflow 1), so what passes counts downstream.
 json open_channel(double volume, double length, double half_width, bool dam, double mu) {
