@@ -2,7 +2,7 @@
 // against the real `runout serve` started as a child process on a loopback port with a scratch database.
 //
 //   build/bench/bench_service [--runout build/runout] [--clients 4] [--seconds 3] [--jobs 1000]
-//                             [--phase all|reads|hostile] [--budget-total-cpu-s X]
+//                             [--phase all|reads|hostile|estimate] [--budget-total-cpu-s X]
 //
 // Phases: (1) one tiny job is run to completion (so /metrics, /series and /compare have a stored run);
 // (2) the server is restarted with --workers 0 and `--jobs` tiny jobs are submitted, first one at a time
@@ -11,7 +11,9 @@
 // server runs a long job on one worker while 100 clients, each from its own loopback address (127.0.1.x),
 // submit 1000 tiny jobs in all, 20 slow clients from one address (127.0.2.1) trickle a header byte a second
 // (reconnecting when cut), and /health is polled every 20 ms: accepted / refused / errors and /health's
-// latency. docs/performance.md.
+// latency; (5, "estimate") POST /estimate of the two catchment scenes on a fresh server: the server's CPU for
+// the first estimate, for each of the next ones and for a refusal in the scene's last-read section, then
+// answers/s from 8 clients with /health's p99 meanwhile. docs/performance.md.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -28,6 +30,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <mutex>
 #include <regex>
@@ -199,7 +202,83 @@ double percentile(std::vector<double> v, double p) {
   return v[std::min(v.size() - 1, static_cast<size_t>(p * (v.size() - 1) + 0.5))];
 }
 
+// The server's CPU time so far [s] (user + system, all threads), from /proc.
+double cpu_seconds(pid_t pid) {
+  std::FILE* f = std::fopen(("/proc/" + std::to_string(pid) + "/stat").c_str(), "r");
+  if (!f) return 0;
+  char buf[2048];
+  const size_t n = std::fread(buf, 1, sizeof buf - 1, f);
+  std::fclose(f);
+  buf[n] = 0;
+  const char* p = std::strrchr(buf, ')');  // the command name may hold spaces
+  unsigned long utime = 0, stime = 0;
+  if (!p || std::sscanf(p + 2, "%*c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %lu %lu", &utime, &stime) != 2) return 0;
+  return static_cast<double>(utime + stime) / static_cast<double>(::sysconf(_SC_CLK_TCK));
+}
+
+// A shipped catchment scene as a request body at draft, its DEM named relative to the scenarios folder (the
+// server's --scene-dir).
+json catchment_request(const std::string& file) {
+  std::ifstream in(fs::path(RUNOUT_SOURCE_DIR) / "scenarios/catchment" / file);
+  json scene = json::parse(in);
+  std::string dem = scene["terrain"]["dem"];
+  scene["terrain"]["dem"] = dem.substr(dem.find("dem/"));
+  return {{"scene", scene}, {"fidelity", "draft"}};
+}
+
 }  // namespace
+
+// Phase 5: what an estimate and a refusal cost the server, and what 8 estimating clients get.
+void estimate_phase(const std::string& runout, const fs::path& dir, double seconds) {
+  std::printf("\nPOST /api/v1/estimate (server CPU per request; a refusal: numerics.cfl out of range)\n");
+  for (const char* file : {"jacksboro_g.json", "alr.json"}) {
+    fs::remove_all(dir / "estimate");
+    fs::create_directories(dir / "estimate");
+    Child server = start(runout, dir / "estimate", {"--workers", "0", "--scene-dir", RUNOUT_SOURCE_DIR "/scenarios"});
+    httplib::Client c("127.0.0.1", server.port);
+    c.set_read_timeout(120);
+    const json body = catchment_request(file);
+    json bad = body;
+    bad["scene"]["numerics"]["cfl"] = 7;
+    auto timed = [&](const json& b, int n, int want) {
+      const double t0 = cpu_seconds(server.pid);
+      for (int k = 0; k < n; ++k) {
+        auto r = c.Post("/api/v1/estimate", b.dump(), "application/json");
+        if (!r || r->status != want) std::fprintf(stderr, "estimate: status %d\n", r ? r->status : -1);
+      }
+      return (cpu_seconds(server.pid) - t0) / n * 1e3;
+    };
+    const double first = timed(body, 1, 200), next = timed(body, 20, 200), refusal = timed(bad, 20, 422);
+    std::atomic<long> answers{0};
+    std::atomic<bool> done{false};
+    std::vector<double> health;
+    std::thread poll([&] {
+      httplib::Client h("127.0.0.1", server.port);
+      while (!done.load()) {
+        const auto s = Clock::now();
+        auto r = h.Get("/api/v1/health");
+        if (r) health.push_back(std::chrono::duration<double, std::milli>(Clock::now() - s).count());
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+    });
+    const auto t0 = Clock::now();
+    std::vector<std::thread> pool;
+    for (int t = 0; t < 8; ++t)
+      pool.emplace_back([&] {
+        httplib::Client e("127.0.0.1", server.port);
+        e.set_read_timeout(120);
+        while (Clock::now() - t0 < std::chrono::duration<double>(seconds))
+          if (auto r = e.Post("/api/v1/estimate", body.dump(), "application/json"); r && r->status == 200) ++answers;
+      });
+    for (auto& t : pool) t.join();
+    const double el = std::chrono::duration<double>(Clock::now() - t0).count();
+    done = true;
+    poll.join();
+    std::printf("  %-17s first %7.1f ms, next %7.1f ms, refusal %7.1f ms; 8 clients %6.1f answers/s, /health p99 %.1f ms\n",
+                file, first, next, refusal, answers.load() / el, percentile(health, 0.99));
+    stop(server);
+  }
+}
 
 // Phase 4: submissions from 100 addresses, slow clients and a running job at once; /health's latency.
 void hostile_phase(const std::string& runout, const fs::path& dir, int jobs, const std::string& budget) {
@@ -322,8 +401,9 @@ int main(int argc, char** argv) {
   const fs::path dir = fs::temp_directory_path() / ("runout_bench_service_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
-  if (phase == "hostile") {
-    hostile_phase(runout, dir, jobs, budget);
+  if (phase == "hostile" || phase == "estimate") {
+    if (phase == "hostile") hostile_phase(runout, dir, jobs, budget);
+    else estimate_phase(runout, dir, seconds);
     fs::remove_all(dir);
     return 0;
   }
@@ -426,7 +506,10 @@ int main(int argc, char** argv) {
                 percentile(lat, 0.99), errors.load());
   }
   stop(server);
-  if (phase == "all") hostile_phase(runout, dir, jobs, budget);
+  if (phase == "all") {
+    hostile_phase(runout, dir, jobs, budget);
+    estimate_phase(runout, dir, seconds);
+  }
   fs::remove_all(dir);
   return 0;
 }

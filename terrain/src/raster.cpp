@@ -7,9 +7,11 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <system_error>
@@ -21,6 +23,9 @@
 #include <gdal.h>
 #include <gdal_utils.h>
 #include <ogr_spatialref.h>
+
+#include "dem_cache.hpp"
+#include "runout/common/sha256.hpp"
 
 namespace runout::terrain {
 
@@ -363,6 +368,27 @@ Grid warp_band1(GDALDatasetH src, const OGRSpatialReference& dst_srs, double res
   return read_band1(warped.get(), wgt, srs_to_wkt(dst_srs), path);
 }
 
+// What a DEM's grid is made from: the SHA-256 of each file GDAL reads for the dataset (a VRT and its sources,
+// read through GDAL's virtual file system so a /vsizip/ member counts), with the options. "" when a file
+// cannot be read back (nothing is kept then).
+std::string dem_content_key(GDALDatasetH src, const DemOptions& options) {
+  std::unique_ptr<char*, CslFree> files(GDALGetFileList(src));
+  if (!files || !files.get()[0]) return "";
+  Sha256 h;
+  std::vector<char> buf(1 << 16);
+  for (char** f = files.get(); *f; ++f) {
+    h.update(*f, std::strlen(*f) + 1);
+    VSILFILE* fp = VSIFOpenL(*f, "rb");
+    if (!fp) return "";
+    size_t got = 0;
+    while ((got = VSIFReadL(buf.data(), 1, buf.size(), fp)) > 0) h.update(buf.data(), got);
+    VSIFCloseL(fp);
+  }
+  char res[64];
+  std::snprintf(res, sizeof res, "%.17g", options.resolution);
+  return h.hex() + "|" + options.target_crs + "|" + res;
+}
+
 Grid require_data(Grid g, const std::string& path) {
   if (std::none_of(g.values.begin(), g.values.end(), [](float v) { return !std::isnan(v); }))
     dem_error("'" + path + "' contains only nodata");
@@ -402,8 +428,14 @@ Grid load_dem(const std::string& path, const DemOptions& options) {
     dem_error("resolution must be a positive number of metres (or 0 for native), got " +
               std::to_string(options.resolution));
 
-  if (!reproject && !resample) return require_data(read_band1(src.get(), gt, srs_to_wkt(*src_srs), path), path);
-  return require_data(warp_band1(src.get(), target ? *target : *src_srs, options.resolution, path), path);
+  const std::string key = dem_content_key(src.get(), options);
+  if (!key.empty())
+    if (std::optional<Grid> kept = detail::cached_dem(key)) return std::move(*kept);
+  Grid g = !reproject && !resample
+               ? require_data(read_band1(src.get(), gt, srs_to_wkt(*src_srs), path), path)
+               : require_data(warp_band1(src.get(), target ? *target : *src_srs, options.resolution, path), path);
+  if (!key.empty()) detail::keep_dem(key, g);
+  return g;
 }
 
 std::string band_description(const std::string& path) {

@@ -50,4 +50,16 @@ TEST_F(common_sha256, Sha256OfKnownContents) {
   EXPECT_THROW(file_sha256((dir / "missing").string()), std::runtime_error);
 }
 
+// The digest of bytes given in pieces is the digest of their concatenation (FIPS 180-2's two-block vector, cut
+// inside its first block and across the block boundary).
+TEST_F(common_sha256, PiecesDigestAsTheirConcatenation) {
+  const std::string text = "abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq";
+  for (const size_t cut : {size_t{0}, size_t{3}, size_t{55}, text.size()}) {
+    Sha256 h;
+    h.update(text.data(), cut);
+    h.update(text.data() + cut, text.size() - cut);
+    EXPECT_EQ(h.hex(), "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1") << "cut at " << cut;
+  }
+}
+
 }  // namespace

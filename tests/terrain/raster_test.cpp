@@ -567,6 +567,40 @@ TEST_F(terrain_raster, BadInputsAreRefusedWithoutWritingAnything) {
 }
 
 // Several threads loading and writing at once (GDAL registration happens once; error state is per thread).
+// load_dem keeps the grids it made by the content they came from: the same DEM again is the same grid, from the
+// keep; a file rewritten in place (same name and size, other values), directly or as a VRT's source, is read
+// afresh; other options make another grid.
+TEST_F(terrain_raster, KeptGridsFollowTheFilesContent) {
+  const int nx = 6, ny = 5;
+  std::vector<float> v(nx * ny);
+  for (int k = 0; k < nx * ny; ++k) v[k] = 300.0f + static_cast<float>(k);
+  const double gt[6] = {500000.0, 10.0, 0, 5100000.0, 0, -10.0};
+  const fs::path tif = dir / "dem.tif", vrt = dir / "dem.vrt";
+  write_test_tiff(tif, nx, ny, gt, "EPSG:32632", v);
+  GDALDatasetH src = GDALOpen(tif.c_str(), GA_ReadOnly);
+  ASSERT_NE(src, nullptr);
+  GDALClose(GDALCreateCopy(GDALGetDriverByName("VRT"), vrt.c_str(), src, FALSE, nullptr, nullptr, nullptr));
+  GDALClose(src);
+
+  const DemCacheStats s0 = dem_cache_stats();
+  const Grid a = load_dem(tif.string()), b = load_dem(tif.string());
+  const DemCacheStats s1 = dem_cache_stats();
+  EXPECT_EQ(s1.misses - s0.misses, 1);
+  EXPECT_EQ(s1.hits - s0.hits, 1);
+  EXPECT_EQ(b.values, a.values);
+  EXPECT_EQ(b.crs_wkt, a.crs_wkt);
+  EXPECT_EQ(b.x0, a.x0);
+  EXPECT_EQ(b.dx, a.dx);
+  EXPECT_EQ(load_dem(vrt.string()).values, v);
+
+  for (float& x : v) x += 1.0f;
+  write_test_tiff(tif, nx, ny, gt, "EPSG:32632", v);
+  EXPECT_EQ(load_dem(tif.string()).values, v);
+  EXPECT_EQ(load_dem(vrt.string()).values, v);
+  EXPECT_EQ(load_dem(tif.string(), DemOptions{"", 20.0}).nx, 3);
+  EXPECT_EQ(dem_cache_stats().misses - s1.misses, 4);  // the VRT once, both rewritten, the 20 m grid
+}
+
 TEST_F(terrain_raster, ConcurrentLoadsAgree) {
   const int nx = 60, ny = 50;
   std::vector<float> v(nx * ny);

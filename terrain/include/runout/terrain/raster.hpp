@@ -79,7 +79,16 @@ struct DemOptions {
 // (field "terrain.dem") for an unreadable file, a raster without CRS or geotransform, a rotated
 // geotransform, a non-metre projected CRS that the options do not reproject, or a raster that is all
 // nodata.
+// The grid is kept in memory by the content of every file GDAL reads for it (the raster, a VRT's sources) and
+// the options: loading the same DEM again returns the kept copy; a file changed in any byte is read afresh.
 Grid load_dem(const std::string& path, const DemOptions& options = {});
+
+// What load_dem's keep has done in this process: lookups answered from it and not, grids and bytes held.
+struct DemCacheStats {
+  long hits = 0, misses = 0;
+  size_t grids = 0, bytes = 0;
+};
+DemCacheStats dem_cache_stats();
 
 // Band 1's description as written (RasterInfo::description): "" when it has none. Throws TerrainError for a
 // file GDAL cannot open.
