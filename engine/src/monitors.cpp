@@ -21,6 +21,14 @@ const std::vector<const MonitorType*>& monitor_types() {
 
 const MonitorType& monitor_type(const std::string& name) { return find_model(monitor_types(), name, "monitor type"); }
 
+real MonitorSpec::number(const std::string& key) const {
+  const auto given = numbers.find(key);
+  if (given != numbers.end()) return given->second;
+  const FieldSpec& f = field_spec(monitor_type(type).fields, key);
+  if (f.shape != "number") throw std::invalid_argument("monitor type '" + type + "': '" + key + "' is not a number");
+  return f.parameters.front().default_value;
+}
+
 template <int D>
 const std::map<std::string, MonitorFactory<D>>& monitor_registry() {
   static const std::map<std::string, MonitorFactory<D>> registry = [] {

@@ -76,7 +76,7 @@ ScreeningGauges::ScreeningGauges(const Scene& scene, const ScreeningSettings& s,
     }
     sec->side.assign(p.size(), 0);
     for (size_t k = 0; k < p.size(); ++k) sec->side[p.id[k]] = static_cast<int8_t>(raw_side(*sec, p.x[k], p.y[k]) * sec->downstream);
-    sec->arrival_volume = spec.arrival_volume > 0 ? spec.arrival_volume : 0.005 * model.total_volume();
+    sec->arrival_volume = spec.number("arrival_volume") > 0 ? spec.number("arrival_volume") : 0.005 * model.total_volume();
     sec->csv << std::setprecision(9) << "t,discharge_m3_s,volume_passed_m3\n0,0,0\n";
     sections_.push_back(std::move(sec));
   }

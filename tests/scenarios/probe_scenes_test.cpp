@@ -130,7 +130,7 @@ TEST(ProbeScenes, ADepthGaugeTakesOnePointOrOneLine) {
   const Scene s3 = parse_scene(tank_3d(plan).dump());
   ASSERT_EQ(s3.monitors.at(0).probe_points.size(), 9u);  // 0.16 m at dp = 0.02 m
   EXPECT_EQ(s3.monitors.at(0).probe_points[4][2], 0.01);
-  EXPECT_EQ(s3.monitors.at(0).wet_kernel_sum, 0.5);
+  EXPECT_EQ(s3.monitors.at(0).number("wet_kernel_sum"), 0.5);
 }
 
 TEST(ProbeScenes, OnTerrainPointsAreMapCoordinatesOverTheBed) {

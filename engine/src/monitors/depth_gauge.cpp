@@ -145,7 +145,7 @@ template <int D>
 class DepthGauge final : public Monitor<D> {
  public:
   DepthGauge(const MonitorSpec& spec, const Solver<D>& s)
-      : Monitor<D>(spec.name), along_(spec.probe_stations), wet_(spec.wet_kernel_sum) {
+      : Monitor<D>(spec.name), along_(spec.probe_stations), wet_(spec.number("wet_kernel_sum")) {
     if (spec.probe_points.empty())
       throw std::invalid_argument("monitor '" + spec.name + "': a depth gauge needs a point or a line");
     if (!along_.empty() && along_.size() != spec.probe_points.size())
@@ -206,6 +206,64 @@ class DepthGauge final : public Monitor<D> {
   real depth(const std::vector<real>& surface, size_t k) const { return std::max(real(0), surface[k] - feet_[k][D - 1]); }
 };
 
+// Stations every `spacing` or closer along a polyline (the ends and every vertex included) and their
+// distances along it.
+void stations_along(const std::vector<std::array<real, 2>>& line, real spacing, std::vector<std::array<real, 2>>& at,
+                    std::vector<real>& along) {
+  real walked = 0;
+  at.push_back(line.front());
+  along.push_back(0.0);
+  for (size_t k = 0; k + 1 < line.size(); ++k) {
+    const real dx = line[k + 1][0] - line[k][0], dy = line[k + 1][1] - line[k][1], length = std::hypot(dx, dy);
+    const long n = std::max(1L, static_cast<long>(std::ceil(length / spacing - 1e-9)));
+    for (long q = 1; q <= n; ++q) {
+      const real s = static_cast<real>(q) / n;
+      at.push_back({line[k][0] + s * dx, line[k][1] + s * dy});
+      along.push_back(walked + s * length);
+    }
+    walked += length;
+  }
+}
+
+// One foot (point) or stations along a line; the feet on the bed on terrain, at the point's last coordinate,
+// the 2D line's y or a 3D line's `floor` elsewhere.
+void read_depth_gauge(const MonitorInput& in, MonitorSpec& spec) {
+  const auto& fields = depth_gauge_type().fields;
+  const int D = in.dimensions();
+  const bool has_point = in.has("point"), has_line = in.has("line");
+  if (has_point == has_line) in.refuse(in.at("point"), "give one of point or line (the stations' feet)");
+  if (in.has("floor") && (has_point || in.on_terrain() || D == 2))
+    in.refuse(in.at("floor"), has_point ? "only with a line: a point's floor is its last coordinate"
+                                        : "only with a 3D line off terrain (the floor is the bed, or the line's y)");
+  const real ox = in.origin()[0], oy = in.origin()[1];
+  if (has_point) {
+    const FieldSpec& key = field_spec(fields, "point");
+    const auto c = in.coordinates(key, {static_cast<size_t>(in.on_terrain() ? 2 : D)});
+    std::array<real, 3> p{0, 0, 0};
+    for (size_t d = 0; d < c.size(); ++d) p[d] = c[d];
+    if (in.on_terrain()) p = {c[0] - ox, c[1] - oy, in.bed_under(in.at(key.key), c[0] - ox, c[1] - oy)};
+    in.check_in_domain(in.at(key.key), p, true);
+    spec.probe_points = {p};
+    return;
+  }
+  const FieldSpec& key = field_spec(fields, "line");
+  const std::vector<std::array<real, 2>> line = in.line(key);
+  const real spacing = spec.number("spacing");
+  std::vector<std::array<real, 2>> at;
+  stations_along(line, spacing > 0 ? spacing : in.dp(), at, spec.probe_stations);
+  constexpr size_t kMaxStations = 100000;  // each sample searches every station's vertical
+  if (at.size() > kMaxStations)
+    in.refuse(in.at("spacing"), "gives " + std::to_string(at.size()) + " stations along the line (at most " +
+                                    std::to_string(kMaxStations) + "): raise it");
+  const real floor = spec.number("floor");
+  for (const auto& q : at) {
+    std::array<real, 3> p = {q[0], q[1], 0.0};  // 2D: x and the floor's height
+    if (D == 3) p[2] = in.on_terrain() ? in.bed_under(in.at(key.key), q[0], q[1]) : floor;
+    in.check_in_domain(in.at(key.key), p, false);
+    spec.probe_points.push_back(p);
+  }
+}
+
 }  // namespace
 
 const MonitorType& depth_gauge_type() {
@@ -232,7 +290,8 @@ const MonitorType& depth_gauge_type() {
                        "distance between stations along the line (0: dp)"},
                       0, "dp"),
          wet_kernel_sum_field(0.5, false, 1.0, true,
-                              "fluid fraction sum V W (the floor's share included) that marks the free surface")});
+                              "fluid fraction sum V W (the floor's share included) that marks the free surface")},
+        read_depth_gauge);
   }();
   return type;
 }

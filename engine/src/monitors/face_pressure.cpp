@@ -154,6 +154,22 @@ class FacePressure final : public Monitor<D> {
   real peak_ = 0, peak_time_ = -1, sum_p_ = 0, arrival_ = -1;
 };
 
+// The structure, the sensor's centre on its face (map coordinates on terrain, the elevation last) and the
+// face's normal.
+void read_face_pressure(const MonitorInput& in, MonitorSpec& spec) {
+  const auto& fields = face_pressure_type().fields;
+  spec.tag = in.structure_tag("structure");
+  const FieldSpec& key = field_spec(fields, "point");
+  const int D = in.dimensions();
+  const auto c = in.coordinates(key, {static_cast<size_t>(D)});
+  std::array<real, 3> p{0, 0, 0};
+  for (int d = 0; d < D; ++d) p[d] = c[d];
+  if (in.on_terrain()) p[0] -= in.origin()[0], p[1] -= in.origin()[1];
+  in.check_in_domain(in.at(key.key), p, true);
+  spec.probe_points = {p};
+  read_normal(in, field_spec(fields, "normal"), spec);
+}
+
 }  // namespace
 
 const MonitorType& face_pressure_type() {
@@ -169,7 +185,8 @@ const MonitorType& face_pressure_type() {
         "face_pressure",
         "pressure on a structure's face as a transducer reads it: the flow's push on the structure's particles "
         "within 2 h of the point across the face and 2 h behind it, kernel-weighted, over the face they stand for",
-        {shaped_field("structure", "string", "a boundary's tag or a terrain structure's name"), point, normal});
+        {shaped_field("structure", "string", "a boundary's tag or a terrain structure's name"), point, normal},
+        read_face_pressure);
   }();
   return type;
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <sstream>
 #include <unordered_set>
 #include <string>
 #include <utility>
@@ -16,8 +17,9 @@ namespace runout::monitor_detail {
 
 // A monitor type whose class M<D> is built from (spec, solver) in 2D and 3D.
 template <template <int> class M>
-MonitorType monitor_type_of(std::string name, std::string doc, std::vector<FieldSpec> fields) {
-  return {std::move(name), std::move(doc), std::move(fields),
+MonitorType monitor_type_of(std::string name, std::string doc, std::vector<FieldSpec> fields,
+                            void (*read)(const MonitorInput&, MonitorSpec&)) {
+  return {std::move(name), std::move(doc), std::move(fields), read,
           [](const MonitorSpec& s, const Solver<2>& v) { return std::make_unique<M<2>>(s, v); },
           [](const MonitorSpec& s, const Solver<3>& v) { return std::make_unique<M<3>>(s, v); }};
 }
@@ -49,6 +51,16 @@ const MonitorType& depth_gauge_type();     // monitors/depth_gauge.cpp
 // The keys the probes share, declared once (monitors/pressure_probe.cpp).
 ParameterSpec point_component();           // one coordinate of a `point` [m]
 FieldSpec wet_kernel_sum_field(real lo, bool lo_open, real hi, bool hi_open, const std::string& doc);
+
+// A number in a refusal, printed as the scene parser prints them (ostream's default: 6 significant digits).
+inline std::string fmt(real v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+// A "vector" field of D components, not all zero (a face's or a load's normal), into spec.normal.
+void read_normal(const MonitorInput& in, const FieldSpec& key, MonitorSpec& spec);  // monitors/structure_load.cpp
 
 // A gauge point of a spec: its first D coordinates (the vertical last).
 template <int D>

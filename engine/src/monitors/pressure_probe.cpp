@@ -21,7 +21,7 @@ namespace {
 template <int D>
 class PressureProbe final : public Monitor<D> {
  public:
-  PressureProbe(const MonitorSpec& spec, const Solver<D>& s) : Monitor<D>(spec.name), wet_(spec.wet_kernel_sum) {
+  PressureProbe(const MonitorSpec& spec, const Solver<D>& s) : Monitor<D>(spec.name), wet_(spec.number("wet_kernel_sum")) {
     if (spec.probe_points.size() != 1)
       throw std::invalid_argument("monitor '" + spec.name + "': a pressure probe needs exactly one point");
     point_ = probe_point<D>(spec, 0);
@@ -100,6 +100,26 @@ class PressureProbe final : public Monitor<D> {
   real peak_ = 0, peak_time_ = -1, sum_p_ = 0, arrival_ = -1;
 };
 
+// On terrain [x, y] map coordinates and an optional height above the bed there (default h); elsewhere the
+// scene's own coordinates, the vertical last.
+void read_pressure_probe(const MonitorInput& in, MonitorSpec& spec) {
+  const FieldSpec& key = field_spec(pressure_probe_type().fields, "point");
+  std::array<real, 3> p{0, 0, 0};
+  if (in.on_terrain()) {
+    const auto c = in.coordinates(key, {2, 3});
+    const real height = c.size() == 3 ? c[2] : in.smoothing_length();
+    if (height < 0)
+      in.refuse(in.at(key.key) + "[2]", "the height above the bed must be at least 0 m (got " + fmt(height) + ")");
+    p = {c[0] - in.origin()[0], c[1] - in.origin()[1], 0.0};
+    p[2] = in.bed_under(in.at(key.key), p[0], p[1]) + height;
+  } else {
+    const auto c = in.coordinates(key, {static_cast<size_t>(in.dimensions())});
+    for (int d = 0; d < in.dimensions(); ++d) p[d] = c[d];
+  }
+  in.check_in_domain(in.at(key.key), p, true);
+  spec.probe_points = {p};
+}
+
 }  // namespace
 
 ParameterSpec point_component() {
@@ -122,7 +142,8 @@ const MonitorType& pressure_probe_type() {
         "pressure at a point: the flow particles' pressures kernel-interpolated and Shepard-normalised, 0 where dry",
         {point, wet_kernel_sum_field(0.0, true, 1.0, false,
                                      "kernel-interpolated fluid fraction sum V W under which the point is dry "
-                                     "(reported as 0)")});
+                                     "(reported as 0)")},
+        read_pressure_probe);
   }();
   return type;
 }

@@ -53,8 +53,9 @@ class SectionGauge final : public Monitor<D> {
       downstream_ = -side_of_extended_line(centroid[0], centroid[1]);
     }
     for (size_t i = 0; i < f.size(); ++i) side_[f.id[i]] = static_cast<int8_t>(raw_side(f, i) * downstream_);
-    arrival_volume_ = spec.arrival_volume > 0 ? spec.arrival_volume : 0.005 * volume;
-    hydrograph_ = LoadFilter(spec.window > 0 ? spec.window : release_time(s, inlets_only), 0);
+    const real arrival = spec.number("arrival_volume"), window = spec.number("window");
+    arrival_volume_ = arrival > 0 ? arrival : 0.005 * volume;
+    hydrograph_ = LoadFilter(window > 0 ? window : release_time(s, inlets_only), 0);
     hydrograph_.add(s.time(), 0, 0);
   }
 
@@ -189,6 +190,14 @@ class SectionGauge final : public Monitor<D> {
   }
 };
 
+// The line (3D: in plan, the run's frame) or, in 2D, the declared x.
+void read_section(const MonitorInput& in, MonitorSpec& spec) {
+  if (in.dimensions() == 3)
+    spec.points = in.line(field_spec(section_type().fields, "line"));
+  else
+    spec.points.push_back({spec.number("x"), 0.0});
+}
+
 }  // namespace
 
 const MonitorType& section_type() {
@@ -202,7 +211,8 @@ const MonitorType& section_type() {
                     0, "0.5% of the flow volume at the start"),
        number_field({"window", "s", 0.0, 0.0, 1e4, false, false, false,
                      "the hydrograph's averaging window: the reported discharge is the volume passed in it over its length"},
-                    0, "sqrt(2d/g), d the flow's mean depth at the start")});
+                    0, "sqrt(2d/g), d the flow's mean depth at the start")},
+      read_section);
   return type;
 }
 

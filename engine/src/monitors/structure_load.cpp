@@ -41,8 +41,9 @@ class StructureLoad final : public Monitor<D> {
     for (int d = 0; d < D; ++d) up_[d] = -s.config().gravity[d];
     if (up_.norm() > 0) up_.normalize(); else up_ = Vec<D>::Unit(D - 1);
     const Face face = loaded_face(s);
-    filter_ = LoadFilter(spec.window > 0 ? spec.window : std::sqrt(2 * face.height / face.g),
-                         spec.min_wetted_area > 0 ? spec.min_wetted_area : 0.1 * face.area);
+    const real window = spec.number("window"), min_area = spec.number("min_wetted_area");
+    filter_ = LoadFilter(window > 0 ? window : std::sqrt(2 * face.height / face.g),
+                         min_area > 0 ? min_area : 0.1 * face.area);
   }
 
   std::vector<std::string> columns() const override {
@@ -261,8 +262,24 @@ FieldSpec normal_field() {
   return f;
 }
 
+// The structure's tag; the normal as given, else (on terrain) the structure's downstream one.
+void read_structure_load(const MonitorInput& in, MonitorSpec& spec) {
+  spec.tag = in.structure_tag("structure");
+  if (in.has("normal"))
+    read_normal(in, field_spec(structure_load_type().fields, "normal"), spec);
+  else
+    spec.normal = in.structure_normal(in.text("structure"));
+}
 
 }  // namespace
+
+void read_normal(const MonitorInput& in, const FieldSpec& key, MonitorSpec& spec) {
+  const int D = in.dimensions();
+  const auto n = in.vector(key, D);
+  real n2 = 0;
+  for (int d = 0; d < D; ++d) spec.normal[d] = n[d], n2 += n[d] * n[d];
+  if (!(n2 > 1e-12)) in.refuse(in.at(key.key), "must not be zero");
+}
 
 const MonitorType& structure_load_type() {
   static const MonitorType type = monitor_type_of<StructureLoad>(
@@ -273,7 +290,8 @@ const MonitorType& structure_load_type() {
                     0, "sqrt(2H/g), H the structure's height: the time a run-up takes to climb it and stall"),
        number_field({"min_wetted_area", "m2", 0.0, 0.0, 1e8, false, false, false,
                      "the least wetted area (window mean) a mean pressure is reported over (m in 2D)"},
-                    0, "10% of the structure's face (height x width across the flow; its height in 2D)")});
+                    0, "10% of the structure's face (height x width across the flow; its height in 2D)")},
+      read_structure_load);
   return type;
 }
 

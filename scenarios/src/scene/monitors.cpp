@@ -1,8 +1,14 @@
-// The monitors section: gauges and loads by name, their types and keys from the engine's monitor_types().
-// On terrain every walled structure gets a load monitor anyway.
+// The monitors section: gauges and loads by name, their types and keys from the engine's monitor_types(). The
+// scene checks the keys and reads each declared number; the type's own `read` (engine/src/monitors/) makes its
+// geometry through SceneMonitorInput, which knows the run's frame: on terrain a point is [x, y] in map
+// coordinates and its height comes from the bed under it; elsewhere it is in the scene's own coordinates, the
+// vertical last. Every point must lie in the run's domain (the plan axes within it, the vertical above its
+// bottom: the top is open), and on terrain over the modelled bed. On terrain every walled structure gets a load
+// monitor anyway.
 #include "readers.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace runout::scene_reader {
 namespace {
@@ -16,80 +22,96 @@ std::set<std::string> monitor_keys(const std::vector<const MonitorType*>& types,
   return keys;
 }
 
+// One monitor's keys and the run's frame, as a monitor type's reader asks for them.
 template <int D>
-void read_section(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec) {
-  if constexpr (D == 3) {
-    const real ox = b.tmodel ? b.tmodel->origin_x : 0.0, oy = b.tmodel ? b.tmodel->origin_y : 0.0;
-    const FieldSpec& line = field_spec(type.fields, "line");
-    ShapeSource src{b.base_dir, {}};
-    if (b.tmodel) src.working_crs = [&b] { return b.tmodel->dem.crs_wkt; };
-    for (const auto& p : read_shape(f.raw(line.key), f.at(line.key), line.min_points, terrain::ShapeKind::line, src))
-      spec.points.push_back({p[0] - ox, p[1] - oy});
-  } else {
-    spec.points.push_back({read_parameter(f, field_spec(type.fields, "x").parameters.front()), 0.0});
+class SceneMonitorInput final : public MonitorInput {
+ public:
+  SceneMonitorInput(const Build<D>& b, const Fields& f) : b_(b), f_(f) {}
+
+  int dimensions() const override { return D; }
+  bool has(const std::string& key) const override { return f_.has(key); }
+  std::string at(const std::string& key) const override { return f_.at(key); }
+  [[noreturn]] void refuse(const std::string& field, const std::string& message) const override {
+    throw SceneError(field, message);
   }
-  spec.arrival_volume = read_parameter(f, field_spec(type.fields, "arrival_volume").parameters.front());
-  spec.window = read_parameter(f, field_spec(type.fields, "window").parameters.front());
-}
-
-template <int D>
-void read_normal(const Fields& f, const ParameterSpec& component, MonitorSpec& spec) {
-  const auto n = f.vector("normal", D, component.lo, component.hi);
-  real n2 = 0;
-  for (int d = 0; d < D; ++d) spec.normal[d] = n[d], n2 += n[d] * n[d];
-  if (!(n2 > 1e-12)) throw SceneError(f.at("normal"), "must not be zero");
-}
-
-// The boundary tag a monitor's "structure" names.
-template <int D>
-uint32_t read_structure_tag(const Build<D>& b, const Fields& f) {
-  const std::vector<std::string>& tags = b.scene.boundary_tags;
-  const std::string target = f.string("structure");
-  auto it = std::find(tags.begin() + 1, tags.end(), target);
-  if (it == tags.end())
-    throw SceneError(f.at("structure"), "no boundary or structure named '" + target +
-                                            "' (named: " + Fields::join({tags.begin() + 1, tags.end()}) + ")");
-  return static_cast<uint32_t>(it - tags.begin());
-}
-
-template <int D>
-void read_structure_load(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec) {
-  spec.tag = read_structure_tag(b, f);
-  const std::string target = f.string("structure");
-  if (f.has("normal")) {
-    read_normal<D>(f, field_spec(type.fields, "normal").parameters.front(), spec);
-  } else if (b.tmodel) {
-    for (const auto& st : b.tmodel->structures)
-      if (st.name == target) spec.normal = {st.flow_normal[0], st.flow_normal[1], 0.0};
+  std::string text(const std::string& key) const override { return f_.string(key); }
+  std::vector<real> vector(const FieldSpec& key, int n) const override {
+    const ParameterSpec& c = key.parameters.front();
+    return f_.vector(key.key, n, c.lo, c.hi);
   }
-  spec.window = read_parameter(f, field_spec(type.fields, "window").parameters.front());
-  spec.min_wetted_area = read_parameter(f, field_spec(type.fields, "min_wetted_area").parameters.front());
-}
+  std::vector<real> coordinates(const FieldSpec& key, const std::vector<size_t>& lengths) const override {
+    const ParameterSpec& c = key.parameters.front();
+    const json& v = f_.raw(key.key);
+    if (!v.is_array() || std::find(lengths.begin(), lengths.end(), v.size()) == lengths.end()) {
+      std::string which;
+      for (size_t n : lengths) which += (which.empty() ? "" : " or ") + std::to_string(n);
+      throw SceneError(f_.at(key.key), "must be an array of " + which + " numbers (m)");
+    }
+    std::vector<real> out;
+    for (size_t k = 0; k < v.size(); ++k)
+      out.push_back(Fields::check_number(v[k], f_.at(key.key) + "[" + std::to_string(k) + "]", c.lo, c.hi, c.lo_open,
+                                         c.hi_open));
+    return out;
+  }
+  std::vector<std::array<real, 2>> line(const FieldSpec& key) const override {
+    ShapeSource src{b_.base_dir, {}};
+    if (b_.tmodel) src.working_crs = [this] { return b_.tmodel->dem.crs_wkt; };
+    const std::array<real, 2> o = origin();
+    std::vector<std::array<real, 2>> out;
+    for (const auto& p : read_shape(f_.raw(key.key), f_.at(key.key), key.min_points, terrain::ShapeKind::line, src))
+      out.push_back({p[0] - o[0], p[1] - o[1]});
+    return out;
+  }
 
-// face_pressure: a structure, a point on its face (the run's frame) and the face's normal.
-template <int D>
-void read_face_pressure(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec) {
-  spec.tag = read_structure_tag(b, f);
-  read_face_point(b, f, type, spec);
-  read_normal<D>(f, field_spec(type.fields, "normal").parameters.front(), spec);
-}
+  bool on_terrain() const override { return b_.tmodel != nullptr; }
+  std::array<real, 2> origin() const override {
+    return {b_.tmodel ? b_.tmodel->origin_x : 0.0, b_.tmodel ? b_.tmodel->origin_y : 0.0};
+  }
+  real bed_under(const std::string& field, real x, real y) const override {
+    const double z = b_.tmodel->bed_at(x, y);
+    if (std::isnan(z))
+      throw SceneError(field, "(" + fmt(x + b_.tmodel->origin_x) + ", " + fmt(y + b_.tmodel->origin_y) +
+                                  ") is off the modelled corridor: no bed under it");
+    return z;
+  }
+  // The message gives the scene's coordinates (map ones on terrain).
+  void check_in_domain(const std::string& field, const std::array<real, 3>& p, bool per_coordinate) const override {
+    const std::array<real, 2> shift = origin();
+    for (int d = 0; d < D; ++d) {
+      const real lo = b_.cfg.domain_min[d], hi = b_.cfg.domain_max[d];
+      const bool vertical = d == D - 1;
+      if (p[d] >= lo && (vertical || p[d] <= hi)) continue;
+      const real s = d < 2 ? shift[d] : 0.0;
+      const std::string axis = std::string(1, "xyz"[d]);
+      const std::string range = vertical ? "at least " + fmt(lo + s) : "in [" + fmt(lo + s) + ", " + fmt(hi + s) + "]";
+      const bool name_coordinate = per_coordinate && !(b_.tmodel && vertical);  // terrain: the height is the bed's
+      throw SceneError(name_coordinate ? field + "[" + std::to_string(d) + "]" : field,
+                       axis + " must be " + range + " m, in the domain (got " + fmt(p[d] + s) + ")");
+    }
+  }
+  uint32_t structure_tag(const std::string& key) const override {
+    const std::vector<std::string>& tags = b_.scene.boundary_tags;
+    const std::string target = f_.string(key);
+    auto it = std::find(tags.begin() + 1, tags.end(), target);
+    if (it == tags.end())
+      throw SceneError(f_.at(key), "no boundary or structure named '" + target +
+                                       "' (named: " + Fields::join({tags.begin() + 1, tags.end()}) + ")");
+    return static_cast<uint32_t>(it - tags.begin());
+  }
+  std::array<real, 3> structure_normal(const std::string& name) const override {
+    std::array<real, 3> n{0, 0, 0};
+    if (b_.tmodel)
+      for (const auto& st : b_.tmodel->structures)
+        if (st.name == name) n = {st.flow_normal[0], st.flow_normal[1], 0.0};
+    return n;
+  }
+  real dp() const override { return b_.dp; }
+  real smoothing_length() const override { return b_.cfg.smoothing_length; }
 
-// The scene side of each monitor type: its keys into a MonitorSpec (positions in the run's frame).
-template <int D>
-using MonitorReader = void (*)(const Build<D>&, const Fields&, const MonitorType&, MonitorSpec&);
-template <int D>
-MonitorReader<D> monitor_reader(const std::string& type) {
-  static const std::map<std::string, MonitorReader<D>> readers = {
-      {"section", read_section<D>},
-      {"structure_load", read_structure_load<D>},
-      {"pressure_probe", read_pressure_probe<D>},
-      {"depth_gauge", read_depth_gauge<D>},
-      {"face_pressure", read_face_pressure<D>},
-  };
-  const auto it = readers.find(type);
-  if (it == readers.end()) throw std::logic_error("monitor type '" + type + "' has no scene reader");
-  return it->second;
-}
+ private:
+  const Build<D>& b_;
+  const Fields& f_;
+};
 
 template <int D>
 MonitorSpec read_monitor(const Build<D>& b, const json& m, const std::string& path, std::set<std::string>& names) {
@@ -101,7 +123,10 @@ MonitorSpec read_monitor(const Build<D>& b, const json& m, const std::string& pa
   Fields f(m, path, monitor_keys({&type}, D));
   spec.name = f.string("name");
   if (!names.insert(spec.name).second) throw SceneError(f.at("name"), "duplicate monitor name '" + spec.name + "'");
-  monitor_reader<D>(spec.type)(b, f, type, spec);
+  for (const auto& field : type.fields)
+    if (field.shape == "number" && (field.dimensions == 0 || field.dimensions == D))
+      spec.numbers[field.key] = read_parameter(f, field.parameters.front());
+  type.read(SceneMonitorInput<D>(b, f), spec);
   return spec;
 }
 

@@ -224,15 +224,6 @@ template <int D> void make_particles(Build<D>& b);
 template <int D> void read_domain(Build<D>& b);
 template <int D> void read_monitors(Build<D>& b);
 
-// The point probes' keys into a MonitorSpec (scene/probes.cpp), for read_monitors.
-template <int D>
-void read_pressure_probe(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec);
-template <int D>
-void read_depth_gauge(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec);
-// face_pressure's point: on the face, in the scene's coordinates (on terrain x, y map coordinates, z the elevation).
-template <int D>
-void read_face_point(const Build<D>& b, const Fields& f, const MonitorType& type, MonitorSpec& spec);
-
 // The terrain, release, structures and protected_zones sections (docs/scene-format.md, "Terrain scenes").
 inline const std::set<std::string> kReleaseKeys{"polygon", "depth", "volume", "material", "hydrograph"};
 // A hydrograph release's strip behind its line, in dp: it holds the inlet's buffer (ceil(2h/dp) + 1 layers,

@@ -16,7 +16,8 @@
 
 namespace runout {
 
-// What a scene says about one monitor (already validated by the scene layer; positions in the run's frame).
+// What a scene says about one monitor, in the run's frame: where it measures (what its type's `read` made of
+// the scene's geometry) and the numbers its type declares.
 struct MonitorSpec {
   std::string type;  // a key of monitor_registry()
   std::string name;
@@ -28,21 +29,49 @@ struct MonitorSpec {
   std::vector<std::array<real, 3>> probe_points;
   // depth_gauge along a line: each station's distance along it [m] (empty for a gauge at one point).
   std::vector<real> probe_stations;
-  // pressure_probe, depth_gauge: the kernel sum sum_j V_j W (the interpolated fluid fraction) at or above which
-  // a point is wet.
-  real wet_kernel_sum = 0.5;
-  // section: the flow volume that must have passed for the front to have arrived [m3, or m2 in 2D];
-  // 0 = 0.5% of the fluid volume at the start.
-  real arrival_volume = 0.0;
   // structure_load, face_pressure: the boundary tag of the structure, and the direction the flow pushes it (unit
   // vector, components beyond the dimension ignored); structure_load: a zero normal reports the force's magnitude.
   uint32_t tag = 0;
   std::array<real, 3> normal{0, 0, 0};
-  // section and structure_load: the averaging window of the reported discharge or load [s]; structure_load: the
-  // least wetted area a mean pressure is taken over [m2, m in 2D]; 0 = derived from the flow or the structure
-  // (engine/src/monitors/section.cpp, structure_load.cpp, load_filter.hpp).
-  real window = 0;
-  real min_wetted_area = 0;
+  // The numbers the type declares (its fields of shape "number": a window, a wet fraction, ...) as the scene
+  // gave them, by key.
+  ParameterValues numbers;
+  // A declared number: as given, else the type's declared default. Throws std::invalid_argument for a key the
+  // type does not declare.
+  real number(const std::string& key) const;
+};
+
+// What a monitor type's `read` asks of the scene it is read from (the scene parser implements it): the keys of
+// one monitor, already checked against the type's declared fields, and the run's frame (terrain scenes work in
+// local coordinates: map minus origin). Every refusal names the field and the accepted range.
+class MonitorInput {
+ public:
+  virtual ~MonitorInput() = default;
+  virtual int dimensions() const = 0;
+  virtual bool has(const std::string& key) const = 0;
+  virtual std::string at(const std::string& key) const = 0;  // the field's path, for messages
+  [[noreturn]] virtual void refuse(const std::string& field, const std::string& message) const = 0;
+  virtual std::string text(const std::string& key) const = 0;
+  // `key` (a "vector" field) as exactly n numbers, each in the range of the field's one parameter.
+  virtual std::vector<real> vector(const FieldSpec& key, int n) const = 0;
+  // `key` (a "vector" field of coordinates, m) as numbers in that range, of one of the accepted counts.
+  virtual std::vector<real> coordinates(const FieldSpec& key, const std::vector<size_t>& lengths) const = 0;
+  // `key` (a "polyline" field: points, or on terrain a vector layer's line) in plan, in the run's frame.
+  virtual std::vector<std::array<real, 2>> line(const FieldSpec& key) const = 0;
+
+  virtual bool on_terrain() const = 0;
+  virtual std::array<real, 2> origin() const = 0;  // map coordinates of the run frame's origin (0 off terrain)
+  // The bed's height under a plan point of the run's frame; refused (naming `field`) off the modelled corridor.
+  virtual real bed_under(const std::string& field, real x, real y) const = 0;
+  // Refuses a point of the run's frame outside the domain (the vertical's top is open); with `per_coordinate`
+  // the message names the coordinate (field[1]).
+  virtual void check_in_domain(const std::string& field, const std::array<real, 3>& p, bool per_coordinate) const = 0;
+  // The boundary tag of the boundary or terrain structure `key` names; refused when none has that name.
+  virtual uint32_t structure_tag(const std::string& key) const = 0;
+  // A terrain structure's downstream normal in plan, {0, 0, 0} for another name or off terrain.
+  virtual std::array<real, 3> structure_normal(const std::string& name) const = 0;
+  virtual real dp() const = 0;
+  virtual real smoothing_length() const = 0;
 };
 
 template <int D>
@@ -78,6 +107,9 @@ struct MonitorType {
   std::string name;
   std::string doc;
   std::vector<FieldSpec> fields;  // besides "type" and "name"
+  // Reads the type's geometry (points, lines, the structure) into `spec`, in the run's frame; the scene parser
+  // has put the declared numbers in spec.numbers before.
+  void (*read)(const MonitorInput& in, MonitorSpec& spec) = nullptr;
   MonitorFactory<2> make_2d;
   MonitorFactory<3> make_3d;
 };
