@@ -171,3 +171,23 @@ TEST(SectionGauge, ALineBesideTheReleaseCountsDownstreamWhicheverWayItIsListed) 
   EXPECT_NEAR(passed_a, beyond, 1e-9);
   EXPECT_NEAR(passed_b, beyond, 1e-9);
 }
+
+// A monitor type is one file: its class, its fields and its reader. Every registered type reads its own geometry,
+// and a spec's numbers are the type's declared ones: as given, else the declared default, and no other key.
+TEST(MonitorTypes, EveryTypeReadsItsOwnGeometryAndDeclaresItsNumbers) {
+  for (const MonitorType* t : monitor_types()) {
+    EXPECT_NE(t->read, nullptr) << t->name;
+    MonitorSpec spec;
+    spec.type = t->name;
+    for (const FieldSpec& f : t->fields) {
+      if (f.shape != "number") continue;
+      EXPECT_EQ(spec.number(f.key), f.parameters.front().default_value) << t->name << "." << f.key;
+      spec.numbers[f.key] = f.parameters.front().hi;
+      EXPECT_EQ(spec.number(f.key), f.parameters.front().hi) << t->name << "." << f.key;
+    }
+    EXPECT_THROW((void)spec.number("not_a_key"), std::invalid_argument) << t->name;
+  }
+  MonitorSpec probe;
+  probe.type = "pressure_probe";
+  EXPECT_THROW((void)probe.number("point"), std::invalid_argument);  // a point is geometry, not a number
+}
