@@ -55,41 +55,6 @@ json geometry_schema(size_t min_points, const std::string& doc) {
   return {{"anyOf", {point_array(min_points), layer_ref_schema()}}, {"description", doc}};
 }
 
-json release_schema() {
-  const std::string doc = "the release area: polygons, holes allowed (no material in a hole)";
-  const json table = {{"type", "array"},
-                      {"items", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2}, {"maxItems", 2}}}};
-  const json hydrograph = {
-      {"type", "object"},
-      {"description", "flow enters across a line from its uphill side instead of a block (docs/scene-format.md)"},
-      {"properties",
-       {{"line", geometry_schema(2, "the inflow cross-section: a straight line of two points")},
-        {"depth", {{"type", "number"}, {"exclusiveMinimum", 0}, {"maximum", 1000}, {"description", "m above the bed"}}},
-        {"discharge", {{"oneOf", {{{"type", "number"}, {"minimum", 0}}, table}}, {"description", "m3/s, or [t, Q] pairs"}}},
-        {"volume", {{"type", "number"}, {"exclusiveMinimum", 0}, {"description", "m3, with duration: a surge"}}},
-        {"duration", {{"type", "number"}, {"exclusiveMinimum", 0}, {"description", "s"}}}}},
-      {"required", {"line", "depth"}},
-      {"additionalProperties", false}};
-  return {{"type", "object"},
-          {"properties",
-           {{"polygon", geometry_schema(3, doc)},
-            {"depth", {{"type", "number"}}},
-            {"volume", {{"type", "number"}}},
-            {"hydrograph", hydrograph},
-            {"material", {{"type", "string"}}}}},
-          {"required", {"material"}},
-          {"additionalProperties", false}};
-}
-
-json protected_zones_schema() {
-  const std::string doc = "the zone: polygons, holes allowed (a hole is not part of the zone)";
-  json zone = {{"type", "object"},
-               {"properties", {{"name", {{"type", "string"}}}, {"polygon", geometry_schema(3, doc)}}},
-               {"required", {"name", "polygon"}},
-               {"additionalProperties", false}};
-  return {{"type", "array"}, {"items", zone}};
-}
-
 // One declared key: its JSON shape, range and doc (a computed default said in the description).
 json field_schema(const FieldSpec& f) {
   json s;
@@ -111,6 +76,11 @@ json field_schema(const FieldSpec& f) {
     s = {{"type", "object"}, {"properties", props}, {"required", required}, {"additionalProperties", false}};
   } else if (f.shape == "indices") {
     s = {{"type", "array"}, {"items", {{"type", "integer"}, {"minimum", 0}}}};
+  } else if (f.shape == "series") {  // a number, or [t, value] pairs
+    json value = number_schema(f.parameters.front());
+    value.erase("default");
+    json pair = {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2}, {"maxItems", 2}};
+    s = {{"oneOf", {value, {{"type", "array"}, {"items", pair}, {"minItems", 1}}}}};
   } else if (f.shape == "faces") {
     s = {{"type", "array"}, {"items", {{"enum", {"x-", "x+", "y-", "y+", "z-", "z+", "top", "bottom"}}}}};
   } else {
@@ -130,6 +100,37 @@ json typed_schema(const std::string& name, const std::string& doc, const std::ve
     if (f.required && f.dimensions == 0) required.push_back(f.key);
   }
   return {{"type", "object"}, {"properties", props}, {"required", required}, {"additionalProperties", false}};
+}
+
+// A section's declared keys as an object (the required ones required, no others).
+json section_schema(const std::vector<FieldSpec>& fields) {
+  json props = json::object(), required = json::array();
+  for (const auto& f : fields) {
+    props[f.key] = field_schema(f);
+    if (f.required) required.push_back(f.key);
+  }
+  return {{"type", "object"}, {"properties", props}, {"required", required}, {"additionalProperties", false}};
+}
+
+json terrain_schema() {
+  json s = section_schema(scene_reader::terrain_fields());
+  s["properties"]["walls"]["enum"] = scene_reader::terrain_wall_choices();
+  const std::string doc = s["properties"]["corridor"]["description"];
+  s["properties"]["corridor"] = section_schema(scene_reader::corridor_fields());
+  s["properties"]["corridor"]["description"] = doc;
+  return s;
+}
+
+json release_schema() {
+  json s = section_schema(scene_reader::release_fields());
+  const std::string doc = s["properties"]["hydrograph"]["description"];
+  s["properties"]["hydrograph"] = section_schema(scene_reader::hydrograph_fields());
+  s["properties"]["hydrograph"]["description"] = doc;
+  return s;
+}
+
+json protected_zones_schema() {
+  return {{"type", "array"}, {"items", section_schema(scene_reader::protected_zone_fields())}};
 }
 
 json output_schema() {
@@ -231,7 +232,7 @@ json scene_schema() {
             {"output", output_schema()},
             {"limits", object},
             {"monitors", monitors_schema()},
-            {"terrain", object},
+            {"terrain", terrain_schema()},
             {"release", release_schema()},
             {"structures", structures_schema()},
             {"protected_zones", protected_zones_schema()},
@@ -278,6 +279,7 @@ std::string shape_text(const FieldSpec& f) {
   if (f.shape == "vector") return "array of `dimensions` numbers";
   if (f.shape == "indices") return "array of integers";
   if (f.shape == "faces") return "array of face names";
+  if (f.shape == "series") return "number or `[[t, value], …]`";
   if (f.shape == "number" && !f.parameters.empty() && f.parameters.front().integer) return "integer";
   return f.shape;
 }
@@ -287,7 +289,7 @@ void field_rows(std::ostringstream& s, const FieldSpec& f) {
   const std::string dims = f.dimensions ? " (" + std::to_string(f.dimensions) + "D)" : "";
   std::string def = f.required ? "**required**" : f.default_text.empty() ? "–" : cell(f.default_text);
   std::string unit = "–", range = "–";
-  if (f.shape == "number" || f.shape == "vector") {
+  if (f.shape == "number" || f.shape == "vector" || f.shape == "series") {
     const ParameterSpec& p = f.parameters.front();
     if (f.shape == "number" && !f.required && f.default_text.empty()) def = "`" + format_number(p.default_value) + "`";
     unit = p.unit.empty() ? "–" : p.unit;
@@ -325,6 +327,22 @@ std::string output_field_table() {
   return s.str();
 }
 std::string structure_type_tables() { return type_tables(terrain::structure_types()); }
+
+std::string terrain_field_tables() {
+  const std::pair<const char*, const std::vector<FieldSpec>*> sections[] = {
+      {"terrain", &scene_reader::terrain_fields()},
+      {"terrain.corridor", &scene_reader::corridor_fields()},
+      {"release", &scene_reader::release_fields()},
+      {"release.hydrograph", &scene_reader::hydrograph_fields()},
+      {"protected_zones[k]", &scene_reader::protected_zone_fields()}};
+  std::ostringstream s;
+  for (const auto& [name, fields] : sections) {
+    s << "`" << name << "`:\n\n| field | shape | default | unit | accepted | meaning |\n|---|---|---|---|---|---|\n";
+    for (const auto& f : *fields) field_rows(s, f);
+    s << "\n";
+  }
+  return s.str();
+}
 
 std::string boundary_type_tables() {
   std::ostringstream s;

@@ -155,6 +155,7 @@ TEST(Schema, DocsMonitorTablesMatchTheDescriptors) { check_generated_block("moni
 
 TEST(Schema, DocsBoundaryTablesMatchTheDescriptors) { check_generated_block("boundary-types", boundary_type_tables()); }
 TEST(Schema, DocsOutputTableMatchesTheDescriptors) { check_generated_block("output-fields", output_field_table()); }
+TEST(Schema, DocsTerrainTablesMatchTheDescriptors) { check_generated_block("terrain-fields", terrain_field_tables()); }
 TEST(Schema, DocsStructureTablesMatchTheDescriptors) {
   check_generated_block("structure-types", structure_type_tables());
 }
@@ -277,4 +278,35 @@ TEST(Schema, DocsNumericsTableAgreesWithTheSceneDescriptors) {
                               (p.hi_open ? ")" : "]");
     EXPECT_NE(row.find(range), std::string::npos) << f.key << " range " << range << ": " << row;
   }
+}
+
+// The terrain scene's sections are described by their descriptors too: the schema lists their keys with the
+// declared ranges, and the parser refuses just past each declared end (on the flume's scene), naming the field.
+TEST(Schema, TerrainSectionsEnforceTheirDescribedRanges) {
+  const std::string dir = std::string(RUNOUT_SOURCE_DIR) + "/scenarios/flume";
+  const json flume = json::parse(read(dir + "/flume.json"));
+  const json s = scene_schema();
+  EXPECT_FALSE(s["properties"]["terrain"]["additionalProperties"].get<bool>());
+  EXPECT_EQ(s["properties"]["terrain"]["properties"]["walls"]["enum"], json({"near_flow", "all"}));
+  EXPECT_EQ(s["properties"]["release"]["properties"]["hydrograph"]["properties"]["depth"]["maximum"], 1000);
+  int refused = 0;
+  for (const std::string section : {"terrain", "terrain.corridor", "release"}) {
+    const json& props = section == "terrain.corridor" ? s["properties"]["terrain"]["properties"]["corridor"]["properties"]
+                                                      : s["properties"][section]["properties"];
+    for (const auto& [key, field] : props.items()) {
+      if (!field.contains("maximum")) continue;
+      json scene = flume;
+      json& target = section == "terrain.corridor" ? scene["terrain"]["corridor"] : scene[section];
+      if (section == "release") target.erase(key == "depth" ? "volume" : "depth");  // one of the two
+      target[key] = field["maximum"].get<double>() * 1.5 + 1;
+      try {
+        (void)parse_scene(scene.dump(), dir);
+        ADD_FAILURE() << section << "." << key << " accepted above its range";
+      } catch (const SceneError& e) {
+        EXPECT_EQ(e.field, section + "." + key) << e.what();
+        ++refused;
+      }
+    }
+  }
+  EXPECT_EQ(refused, 7);  // resolution, layers; travel_angle, buffer, max_outflow; depth, volume
 }

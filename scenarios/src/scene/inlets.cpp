@@ -77,8 +77,9 @@ InletSpec<D> read_inlet(Build<D>& b, const json& j, size_t k, const std::vector<
 template <int D>
 InletSpec<D> terrain_inlet(const Build<D>& b) {
   const auto& tm = *b.tmodel;
-  const Fields r(b.j.at("release"), "release", kReleaseKeys);
-  const Fields h(r.raw("hydrograph"), "release.hydrograph", {"line", "depth", "discharge", "volume", "duration"});
+  const auto& fields = hydrograph_fields();
+  const Fields r(b.j.at("release"), "release", field_keys(release_fields()));
+  const Fields h(r.raw("hydrograph"), "release.hydrograph", field_keys(fields));
   InletSpec<D> in;
   in.name = "release";
   in.material = b.material_index.at(b.release_material);
@@ -95,7 +96,7 @@ InletSpec<D> terrain_inlet(const Build<D>& b) {
   in.across = Vec<D>::Zero();
   in.across[0] = (line[1][0] - line[0][0]) / length;
   in.across[1] = (line[1][1] - line[0][1]) / length;
-  in.depth = h.number("depth", 0.0, 1000.0, true);
+  in.depth = read_parameter(h, field_spec(fields, "depth").parameters.front());
   const real strip = kInflowStripLayers * b.dp;
   for (size_t k = 0; k < lanes; ++k) {
     const Vec<D> front = in.origin + (k + 0.5) * b.dp * in.across;
@@ -124,7 +125,12 @@ InletSpec<D> terrain_inlet(const Build<D>& b) {
     read_speed(h, "release.hydrograph", area, in);
   } else {
     // A surge: the peak at once, falling linearly to nothing at `duration`, its integral the volume.
-    const real volume = h.number("volume", 0.0, 1e9, true), duration = h.number("duration", 0.0, 1e6, true);
+    auto needed = [&](const std::string& key) {  // volume and duration come together (checked above)
+      ParameterSpec p = field_spec(fields, key).parameters.front();
+      p.required = true;
+      return read_parameter(h, p);
+    };
+    const real volume = needed("volume"), duration = needed("duration");
     in.speed = {{0.0, 2 * volume / duration / area}, {duration, 0.0}};
   }
   return in;

@@ -224,8 +224,15 @@ template <int D> void make_particles(Build<D>& b);
 template <int D> void read_domain(Build<D>& b);
 template <int D> void read_monitors(Build<D>& b);
 
-// The terrain, release, structures and protected_zones sections (docs/scene-format.md, "Terrain scenes").
-inline const std::set<std::string> kReleaseKeys{"polygon", "depth", "volume", "material", "hydrograph"};
+// The terrain, release, structures and protected_zones sections (docs/scene-format.md, "Terrain scenes"): their
+// keys (terrain_fields.cpp), for the readers, the schema and the docs.
+const std::vector<FieldSpec>& terrain_fields();         // terrain
+const std::vector<FieldSpec>& corridor_fields();        // terrain.corridor
+const std::vector<FieldSpec>& release_fields();         // release
+const std::vector<FieldSpec>& hydrograph_fields();      // release.hydrograph
+const std::vector<FieldSpec>& protected_zone_fields();  // protected_zones[k]
+const std::vector<std::string>& terrain_wall_choices(); // terrain.walls
+std::set<std::string> field_keys(const std::vector<FieldSpec>& fields);
 // A hydrograph release's strip behind its line, in dp: it holds the inlet's buffer (ceil(2h/dp) + 1 layers,
 // at most 8 for the accepted smoothing ratios) and is what the floor under each lane is fitted over.
 constexpr int kInflowStripLayers = 8;

@@ -12,24 +12,39 @@ using terrain::StructureType;
 
 using terrain::ShapeKind;
 
+// A declared number of a section.
+real number_of(const Fields& f, const std::vector<FieldSpec>& fields, const std::string& key) {
+  return read_parameter(f, field_spec(fields, key).parameters.front());
+}
+
+// A declared geometry of a section: polygons (several parts, holes) or a line, as its field says.
+terrain::Polyline shape_of(const Fields& f, const std::vector<FieldSpec>& fields, const std::string& key,
+                           const ShapeSource& src) {
+  const FieldSpec& field = field_spec(fields, key);
+  return read_shape(f.raw(key), f.at(key), field.min_points,
+                    field.min_points < 3 ? ShapeKind::line : ShapeKind::multipolygon, src);
+}
+
 void read_corridor(const Fields& t, terrain::CorridorSpec& corridor, const ShapeSource& src) {
-  Fields c(t.raw("corridor"), "terrain.corridor", {"travel_angle", "buffer", "polygon", "max_outflow"});
-  corridor.travel_angle_deg = c.number_or("travel_angle", 11.0, 0.0, 60.0, true);
-  corridor.buffer_m = c.number_or("buffer", 0.0, 0.0, 1e5);
-  if (c.has("polygon")) corridor.polygon = read_shape(c.raw("polygon"), c.at("polygon"), 3, ShapeKind::multipolygon, src);
-  corridor.max_outflow = c.number_or("max_outflow", 0.01, 0.0, 1.0);
+  const auto& fields = corridor_fields();
+  Fields c(t.raw("corridor"), "terrain.corridor", field_keys(fields));
+  corridor.travel_angle_deg = number_of(c, fields, "travel_angle");
+  corridor.buffer_m = number_of(c, fields, "buffer");
+  if (c.has("polygon")) corridor.polygon = shape_of(c, fields, "polygon", src);
+  corridor.max_outflow = number_of(c, fields, "max_outflow");
 }
 
 void read_terrain_section(const json& j, const std::filesystem::path& base_dir, terrain::TerrainSpec& spec,
                           ShapeSource& src) {
-  Fields t(j.at("terrain"), "terrain", {"dem", "crs", "resolution", "layers", "corridor", "walls"});
-  if (t.has("walls")) t.string("walls", {"near_flow", "all"});
+  const auto& fields = terrain_fields();
+  Fields t(j.at("terrain"), "terrain", field_keys(fields));
+  if (t.has("walls")) t.string("walls", terrain_wall_choices());
   std::filesystem::path dem = t.string("dem");
   if (dem.is_relative() && !base_dir.empty()) dem = base_dir / dem;
   spec.dem_path = dem.string();
   spec.dem.target_crs = t.string_or("crs", "");
-  spec.dem.resolution = t.number_or("resolution", 0.0, 0.0, 1e4);
-  spec.layers = static_cast<int>(t.integer("layers", 3, 2, 10));
+  spec.dem.resolution = number_of(t, fields, "resolution");
+  spec.layers = static_cast<int>(number_of(t, fields, "layers"));
   src.base_dir = base_dir;
   src.working_crs = [path = spec.dem_path, options = spec.dem, wkt = std::make_shared<std::string>()]() {
     if (wkt->empty()) *wkt = terrain::working_crs_wkt(path, options);  // the DEM's header, once
@@ -41,20 +56,22 @@ void read_terrain_section(const json& j, const std::filesystem::path& base_dir, 
 void read_release(const json& j, terrain::ReleaseSpec& release, const ShapeSource& src) {
   if (!j.contains("release"))
     throw SceneError("release", "missing (required in a terrain scene: polygon, depth or volume, material; or a hydrograph)");
-  Fields r(j.at("release"), "release", kReleaseKeys);
+  const auto& fields = release_fields();
+  Fields r(j.at("release"), "release", field_keys(fields));
   if (r.has("hydrograph")) {
     if (r.has("polygon") || r.has("depth") || r.has("volume"))
       throw SceneError("release", "give either a hydrograph or a polygon with depth or volume, not both");
-    Fields h(r.raw("hydrograph"), "release.hydrograph", {"line", "depth", "discharge", "volume", "duration"});
-    release.inflow_line = read_shape(h.raw("line"), h.at("line"), 2, ShapeKind::line, src);
-    release.depth = h.number("depth", 0.0, 1000.0, true);
+    Fields h(r.raw("hydrograph"), "release.hydrograph", field_keys(hydrograph_fields()));
+    release.inflow_line = shape_of(h, hydrograph_fields(), "line", src);
+    release.depth = number_of(h, hydrograph_fields(), "depth");
     return;
   }
-  release.polygon = read_shape(r.raw("polygon"), r.at("polygon"), 3, ShapeKind::multipolygon, src);
+  release.polygon = shape_of(r, fields, "polygon", src);
   if (r.has("depth") == r.has("volume"))
-    throw SceneError("release", "give exactly one of depth (m, in (0, 1000]) or volume (m3, in (0, 1e9])");
-  release.depth = r.number_or("depth", 0.0, 0.0, 1000.0, true);
-  release.volume = r.number_or("volume", 0.0, 0.0, 1e9, true);
+    throw SceneError("release", "give exactly one of depth (" + field_spec(fields, "depth").parameters.front().range_text() +
+                                    ") or volume (" + field_spec(fields, "volume").parameters.front().range_text() + ")");
+  release.depth = number_of(r, fields, "depth");
+  release.volume = number_of(r, fields, "volume");
 }
 
 // A structure's geometry: an axis is one line, an area one ring (a deposition area's plane and a basin's
@@ -140,8 +157,8 @@ void read_protected_zones(const json& j, std::vector<terrain::ProtectedZone>& ou
   const json& zs = j.at("protected_zones");
   if (!zs.is_array()) throw SceneError("protected_zones", "must be an array of {name, polygon}");
   for (size_t k = 0; k < zs.size(); ++k) {
-    Fields z(zs[k], item("protected_zones", k), {"name", "polygon"});
-    out.push_back({z.string("name"), read_shape(z.raw("polygon"), z.at("polygon"), 3, ShapeKind::multipolygon, src)});
+    Fields z(zs[k], item("protected_zones", k), field_keys(protected_zone_fields()));
+    out.push_back({z.string("name"), shape_of(z, protected_zone_fields(), "polygon", src)});
   }
 }
 
@@ -167,7 +184,7 @@ void read_terrain(Build<D>& b) {
   if (D != 3) throw SceneError("dimensions", "a terrain scene must have dimensions = 3");
   terrain::TerrainSpec spec = parse_terrain_spec(b.j, b.base_dir);
   spec.release.inflow_length = kInflowStripLayers * b.dp;
-  b.release_material = Fields(b.j.at("release"), "release", kReleaseKeys).string("material");
+  b.release_material = Fields(b.j.at("release"), "release", field_keys(release_fields())).string("material");
   if (!b.material_index.count(b.release_material))
     throw SceneError("release.material", "no material named '" + b.release_material + "'");
   const Fields t(b.j.at("terrain"), "terrain", {}, true);

@@ -21,5 +21,8 @@ std::string structure_type_tables();
 std::string boundary_type_tables();
 // Between its "output-fields" markers: the output section's keys, output.intensity's members among them.
 std::string output_field_table();
+// The terrain scene's sections (terrain, terrain.corridor, release, release.hydrograph, protected_zones): one
+// table each.
+std::string terrain_field_tables();
 
 }  // namespace runout
