@@ -32,6 +32,8 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
   read_gravity(b);
   read_materials(b);
   read_limits(b);
+  check_numerics(j);
+  check_monitors(j, D);
   read_terrain(b);
   read_fluid(b);
   read_inlets(b);

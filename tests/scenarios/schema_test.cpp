@@ -13,6 +13,7 @@
 #include "runout/scenarios/scene.hpp"
 #include "runout/scenarios/schema.hpp"
 #include "runout/engine/monitors.hpp"
+#include "runout/terrain/raster.hpp"
 #include "runout/terrain/terrain.hpp"
 
 using json = nlohmann::json;
@@ -309,4 +310,35 @@ TEST(Schema, TerrainSectionsEnforceTheirDescribedRanges) {
     }
   }
   EXPECT_EQ(refused, 7);  // resolution, layers; travel_angle, buffer, max_outflow; depth, volume
+}
+
+// A numerics or monitor field out of its declared range is refused before the terrain is built: the DEM is not
+// even read (what a refused request to the service then costs: docs/performance.md, "Estimates").
+TEST(Schema, DeclaredFieldsAreRefusedBeforeTheTerrainIsBuilt) {
+  const std::string dir = std::string(RUNOUT_SOURCE_DIR) + "/scenarios/flume";
+  const json flume = json::parse(read(dir + "/flume.json"));
+  json bad_numerics = flume, bad_monitor = flume, bad_kernel = flume;
+  bad_numerics["numerics"]["cfl"] = 7;
+  bad_kernel["numerics"]["kernel"] = "gauss";
+  bad_monitor["monitors"] = {{{"type", "section"}, {"name", "S"}, {"line", {{500003.0, 5000000.0}, {500003.0, 5000001.2}}},
+                              {"window", -1}}};
+  const std::pair<const json*, std::string> cases[] = {
+      {&bad_numerics, "numerics.cfl"}, {&bad_kernel, "numerics.kernel"}, {&bad_monitor, "monitors[0].window"}};
+  for (const auto& [scene, field] : cases) {
+    const terrain::DemCacheStats before = terrain::dem_cache_stats();
+    try {
+      (void)parse_scene(scene->dump(), dir);
+      ADD_FAILURE() << field << " accepted";
+    } catch (const SceneError& e) {
+      EXPECT_EQ(e.field, field) << e.what();
+    }
+    const terrain::DemCacheStats after = terrain::dem_cache_stats();
+    EXPECT_EQ(after.hits + after.misses, before.hits + before.misses) << field << ": the DEM was read";
+  }
+  const terrain::DemCacheStats before = terrain::dem_cache_stats();
+  json plain = flume;
+  plain.erase("structures");  // the candidates overlap: a layout holds some of them
+  (void)parse_scene(plain.dump(), dir);  // the control: a scene that is built reads its DEM
+  const terrain::DemCacheStats after = terrain::dem_cache_stats();
+  EXPECT_EQ(after.hits + after.misses, before.hits + before.misses + 1);
 }

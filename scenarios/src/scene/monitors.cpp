@@ -113,8 +113,8 @@ class SceneMonitorInput final : public MonitorInput {
   const Fields& f_;
 };
 
-template <int D>
-MonitorSpec read_monitor(const Build<D>& b, const json& m, const std::string& path, std::set<std::string>& names) {
+// A monitor's type, keys, name and declared numbers: all of it but its geometry, which needs the run's frame.
+MonitorSpec read_monitor_keys(const json& m, const std::string& path, int D, std::set<std::string>& names) {
   std::vector<std::string> type_names;
   for (const auto* t : monitor_types()) type_names.push_back(t->name);
   MonitorSpec spec;
@@ -126,6 +126,14 @@ MonitorSpec read_monitor(const Build<D>& b, const json& m, const std::string& pa
   for (const auto& field : type.fields)
     if (field.shape == "number" && (field.dimensions == 0 || field.dimensions == D))
       spec.numbers[field.key] = read_parameter(f, field.parameters.front());
+  return spec;
+}
+
+template <int D>
+MonitorSpec read_monitor(const Build<D>& b, const json& m, const std::string& path, std::set<std::string>& names) {
+  MonitorSpec spec = read_monitor_keys(m, path, D, names);
+  const MonitorType& type = monitor_type(spec.type);
+  const Fields f(m, path, monitor_keys({&type}, D));
   type.read(SceneMonitorInput<D>(b, f), spec);
   return spec;
 }
@@ -148,6 +156,14 @@ void add_structure_loads(Build<D>& b, const std::set<std::string>& names) {
 }
 
 }  // namespace
+
+void check_monitors(const json& j, int D) {
+  if (!j.contains("monitors") || j["monitors"].is_null()) return;
+  const json& ms = j["monitors"];
+  if (!ms.is_array()) throw SceneError("monitors", "must be an array of monitors");
+  std::set<std::string> names;
+  for (size_t k = 0; k < ms.size(); ++k) (void)read_monitor_keys(ms[k], item("monitors", k), D, names);
+}
 
 template <int D>
 void read_monitors(Build<D>& b) {

@@ -224,6 +224,12 @@ template <int D> void make_particles(Build<D>& b);
 template <int D> void read_domain(Build<D>& b);
 template <int D> void read_monitors(Build<D>& b);
 
+// The numerics' and the monitors' keys, choices and declared ranges, checked before anything is built (build<D>
+// calls them before the terrain), so such a refusal costs no terrain build; read_numerics and read_monitors
+// read them again with the scene's defaults and the run's frame.
+void check_numerics(const json& j);
+void check_monitors(const json& j, int dimensions);
+
 // The terrain, release, structures and protected_zones sections (docs/scene-format.md, "Terrain scenes"): their
 // keys (terrain_fields.cpp), for the readers, the schema and the docs.
 const std::vector<FieldSpec>& terrain_fields();         // terrain
