@@ -32,8 +32,6 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
   read_gravity(b);
   read_materials(b);
   read_limits(b);
-  check_numerics(j);
-  check_monitors(j, D);
   read_terrain(b);
   read_fluid(b);
   read_inlets(b);
@@ -64,6 +62,7 @@ Scene parse_scene(const std::string& json_text, const std::filesystem::path& bas
   (void)top.string_or("description", "");
   scene.dimensions = static_cast<int>(top.integer("dimensions", 0, 2, 3));
   if (!top.has("dimensions")) throw SceneError("dimensions", "missing (required: 2 or 3)");
+  check_declared_fields(j, scene.dimensions);
   scene.dp = top.number("dp", 1e-4, 100.0);
   if (top.has("fidelity")) check_fidelity(top, scene.dp);
   scene.duration = top.number("duration", 0.0, 1e5, true);

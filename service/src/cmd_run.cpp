@@ -104,7 +104,9 @@ int run(const RunArgs& a) {
   try {
     resolved = resolve(a);
   } catch (const SceneError& e) {
-    spdlog::error("scene refused: {}", e.what());
+    if (e.errors.size() < 2) spdlog::error("scene refused: {}", e.what());
+    else
+      for (const auto& [field, message] : e.errors) spdlog::error("scene refused: {}: {}", field, message);
     return 2;
   }
   std::unique_ptr<RunStore> store;

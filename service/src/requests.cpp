@@ -239,7 +239,10 @@ void validate_resolved(const std::string& resolved, const std::string& path, con
                      msg + " (accepted: at most " + std::to_string(limits.particle_budget) +
                          " particles per job, --particle-budget; choose a coarser fidelity)");
     }
-    throw ApiError(422, at(path, e.field), msg);
+    ApiError err(422, at(path, e.field), msg);
+    if (e.errors.size() > 1)  // every declared field's error at once
+      for (const auto& [field, message] : e.errors) err.errors.emplace_back(at(path, field), message);
+    throw err;
   } catch (const std::exception& e) {
     throw ApiError(422, path.empty() ? "scene" : path, e.what());
   }

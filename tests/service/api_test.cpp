@@ -219,6 +219,23 @@ TEST_F(Api, EveryInvalidFieldIsListed) {
   EXPECT_EQ(query_int("SELECT COUNT(*) FROM jobs"), 0);
 }
 
+// A scene's declared fields (output, numerics, monitors, the terrain sections) are checked key by key before
+// anything is built: every error among them in one answer, each naming its field.
+TEST_F(Api, EveryDeclaredFieldOfASceneIsListed) {
+  start({"--workers", "0"});
+  json bad = tiny_scene("declared");
+  bad["output"] = {{"rest_time", -1}};
+  bad["numerics"] = {{"cfl", 7}, {"kernel", "gauss"}, {"colour", 1}};
+  const Reply r = post("/jobs", {{"scene", bad}});
+  EXPECT_EQ(r.status, 422) << r.text;
+  std::vector<std::string> fields;
+  for (const auto& e : r.body.at("errors")) fields.push_back(e.at("field"));
+  EXPECT_EQ(fields, (std::vector<std::string>{"scene.output.rest_time", "scene.numerics.colour", "scene.numerics.cfl",
+                                              "scene.numerics.kernel"}))
+      << r.text;
+  EXPECT_EQ(query_int("SELECT COUNT(*) FROM jobs"), 0);
+}
+
 // Lists come in pages of `limit` from an opaque cursor: following `next` (and the Link header) covers every
 // item exactly once, in the list's order, also when items are added between pages.
 TEST_F(Api, PagesCoverEveryItemExactlyOnce) {

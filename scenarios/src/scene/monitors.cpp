@@ -13,15 +13,6 @@
 namespace runout::scene_reader {
 namespace {
 
-// The keys a monitor of `types` accepts in a scene of dimension D (0: whatever the dimension).
-std::set<std::string> monitor_keys(const std::vector<const MonitorType*>& types, int D) {
-  std::set<std::string> keys = {"type", "name"};
-  for (const auto* t : types)
-    for (const auto& f : t->fields)
-      if (D == 0 || f.dimensions == 0 || f.dimensions == D) keys.insert(f.key);
-  return keys;
-}
-
 // One monitor's keys and the run's frame, as a monitor type's reader asks for them.
 template <int D>
 class SceneMonitorInput final : public MonitorInput {
@@ -157,12 +148,12 @@ void add_structure_loads(Build<D>& b, const std::set<std::string>& names) {
 
 }  // namespace
 
-void check_monitors(const json& j, int D) {
-  if (!j.contains("monitors") || j["monitors"].is_null()) return;
-  const json& ms = j["monitors"];
-  if (!ms.is_array()) throw SceneError("monitors", "must be an array of monitors");
-  std::set<std::string> names;
-  for (size_t k = 0; k < ms.size(); ++k) (void)read_monitor_keys(ms[k], item("monitors", k), D, names);
+std::set<std::string> monitor_keys(const std::vector<const MonitorType*>& types, int D) {
+  std::set<std::string> keys = {"type", "name"};
+  for (const auto* t : types)
+    for (const auto& f : t->fields)
+      if (D == 0 || f.dimensions == 0 || f.dimensions == D) keys.insert(f.key);
+  return keys;
 }
 
 template <int D>

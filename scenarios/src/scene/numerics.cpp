@@ -163,23 +163,6 @@ void check_verlet(const std::vector<MaterialParams>& materials, const Fields& nu
 
 }  // namespace
 
-void check_numerics(const json& j) {
-  const Fields num = numerics_fields(j);
-  for (const auto& p : numerics_parameters()) (void)read_parameter(num, p);
-  for (const auto& f : scene_numerics_fields())
-    if (f.key != "viscosity_cap" && num.has(f.key)) (void)read_parameter(num, f.parameters.front());
-  SolverConfig scratch;
-  read_viscosity_cap(num, scratch);
-  const std::pair<const char*, std::vector<std::string>> choices[] = {
-      {"kernel", kernel_names()},
-      {"integrator", integrator_names()},
-      {"density_diffusion", density_diffusion_names()},
-      {"viscosity", viscous_step_names()},
-      {"boundary_pressure", boundary_pressure_names()}};
-  for (const auto& [key, names] : choices) (void)num.string_or(key, "", names);
-  (void)num.boolean_or("density_floor", false);
-}
-
 template <int D>
 void read_numerics(Build<D>& b) {
   SolverConfig& cfg = b.cfg;

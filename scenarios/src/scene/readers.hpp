@@ -224,11 +224,12 @@ template <int D> void make_particles(Build<D>& b);
 template <int D> void read_domain(Build<D>& b);
 template <int D> void read_monitors(Build<D>& b);
 
-// The numerics' and the monitors' keys, choices and declared ranges, checked before anything is built (build<D>
-// calls them before the terrain), so such a refusal costs no terrain build; read_numerics and read_monitors
-// read them again with the scene's defaults and the run's frame.
-void check_numerics(const json& j);
-void check_monitors(const json& j, int dimensions);
+// The declared fields of the output, numerics, monitors and terrain sections, each key checked on its own before
+// anything is built (declared.cpp): throws one SceneError listing every error (SceneError::errors), so a refusal
+// names them all and costs no terrain build. The section readers read the same keys again when building.
+void check_declared_fields(const json& j, int dimensions);
+// The keys a monitor of `types` accepts in a scene of dimension D (0: whatever the dimension).
+std::set<std::string> monitor_keys(const std::vector<const MonitorType*>& types, int D);
 
 // The terrain, release, structures and protected_zones sections (docs/scene-format.md, "Terrain scenes"): their
 // keys (terrain_fields.cpp), for the readers, the schema and the docs.

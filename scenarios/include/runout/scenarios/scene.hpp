@@ -6,6 +6,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -22,6 +23,9 @@ struct TerrainModel;
 
 struct SceneError : std::invalid_argument {
   std::string field;
+  // Every error, {field, message}, when several fields were checked together (the first is `field` and the
+  // message of what()); empty when the parser stopped at this one.
+  std::vector<std::pair<std::string, std::string>> errors;
   SceneError(std::string field_path, const std::string& message)
       : std::invalid_argument(field_path + ": " + message), field(std::move(field_path)) {}
 };
