@@ -8,54 +8,75 @@
 namespace runout::terrain {
 namespace {
 
-// Tile (ix, iy) holds bed columns i with i / k == ix and rows j with (ny - 1 - j) / k == iy (rows run north to
-// south, tiles south to north, as the local y axis). A column's particle sits half a column inside its tile,
-// so rounding never puts it in the next one.
+// Column (ix, iy) of the tile grid is bed column i = ix, row j = ny - 1 - iy (rows run north to south, the
+// grid south to north, as the local y axis); its layers are cut into slabs of kBedSlabLayers from the top.
+// A particle's id is its place in the column-by-column, top-down order, the order of the bed laid whole.
 class BedWallSource final : public WallSource<3> {
  public:
   explicit BedWallSource(std::shared_ptr<const TerrainModel> model) : m_(std::move(model)) {
     const Grid& bed = m_->bed;
-    grid_.size = kBedTileColumns * m_->dp;
+    grid_.size = m_->dp;
     grid_.x0 = bed.x0 - m_->origin_x;
     grid_.y0 = bed.y1() - m_->origin_y;
-    grid_.nx = (bed.nx + kBedTileColumns - 1) / kBedTileColumns;
-    grid_.ny = (bed.ny + kBedTileColumns - 1) / kBedTileColumns;
-    first_.assign(static_cast<size_t>(grid_.count()) + 1, 0);
+    grid_.nx = bed.nx;
+    grid_.ny = bed.ny;
+    grid_.spread = 0;  // a column's particles are on its axis
+    grid_.slab = kBedSlabLayers * m_->dp;
+    grid_.slab_extent = (kBedSlabLayers - 1) * m_->dp;
+    const int64_t columns = grid_.columns();
+    grid_.column_first.assign(static_cast<size_t>(columns) + 1, 0);
+    grid_.column_top.assign(static_cast<size_t>(columns), 0.0);
+    first_.assign(static_cast<size_t>(columns) + 1, 0);
     lowest_ = Vec<3>::Constant(std::numeric_limits<real>::infinity());
-    for (int64_t t = 0; t < grid_.count(); ++t) {
-      uint64_t n = 0;
-      for_columns(t, [&](int i, int j, size_t c) {
-        n += m_->bed_layers[c];
-        if (m_->bed_layers[c] == 0) return;
-        const Vec<3> deepest = position(i, j, c, m_->bed_layers[c] - 1);
-        lowest_ = lowest_.cwiseMin(deepest);
-      });
-      first_[t + 1] = first_[t] + n;
+    for (int64_t k = 0; k < columns; ++k) {
+      const int i = static_cast<int>(k % grid_.nx), j = bed.ny - 1 - static_cast<int>(k / grid_.nx);
+      const size_t c = static_cast<size_t>(j) * bed.nx + i;
+      const int layers = m_->bed_layers[c];
+      first_[k + 1] = first_[k] + layers;
+      grid_.column_first[k + 1] = grid_.column_first[k] + (layers + kBedSlabLayers - 1) / kBedSlabLayers;
+      if (layers == 0) continue;
+      grid_.column_top[k] = position(i, j, c, 0)[2];
+      lowest_ = lowest_.cwiseMin(position(i, j, c, layers - 1));
     }
   }
 
   WallTileGrid tiles() const override { return grid_; }
-  uint64_t first_index(int64_t t) const override { return first_[t]; }
+  uint64_t first_index(int64_t t) const override {
+    const Slab sl = slab_of(t);
+    return first_[sl.column] + static_cast<uint64_t>(sl.first_layer);
+  }
   uint64_t total() const override { return first_.back(); }
   Vec<3> lowest() const override { return lowest_; }
 
   void lay(int64_t t, std::vector<Vec<3>>& positions, std::vector<Vec<3>>& normals,
            std::vector<uint32_t>& tags) const override {
-    for_columns(t, [&](int i, int j, size_t c) {
-      const Vec<3> n = bed_normal(i, j);
-      for (int q = 0; q < m_->bed_layers[c]; ++q) {
-        positions.push_back(position(i, j, c, q));
-        normals.push_back(n);
-        tags.push_back(1);
-      }
-    });
+    const Slab sl = slab_of(t);
+    const int i = static_cast<int>(sl.column % grid_.nx), j = m_->bed.ny - 1 - static_cast<int>(sl.column / grid_.nx);
+    const size_t c = static_cast<size_t>(j) * m_->bed.nx + i;
+    const Vec<3> n = bed_normal(i, j);
+    const int end = std::min<int>(m_->bed_layers[c], sl.first_layer + kBedSlabLayers);
+    for (int q = sl.first_layer; q < end; ++q) {
+      positions.push_back(position(i, j, c, q));
+      normals.push_back(n);
+      tags.push_back(1);
+    }
   }
 
  private:
   std::shared_ptr<const TerrainModel> m_;
   WallTileGrid grid_;
-  std::vector<uint64_t> first_;
+  std::vector<uint64_t> first_;  // per grid column: the particles of the columns before it
   Vec<3> lowest_;
+
+  struct Slab {
+    int64_t column;
+    int first_layer;
+  };
+  Slab slab_of(int64_t t) const {
+    const auto& cf = grid_.column_first;
+    const int64_t k = std::upper_bound(cf.begin(), cf.end(), t) - cf.begin() - 1;
+    return {k, static_cast<int>(t - cf[static_cast<size_t>(k)]) * kBedSlabLayers};
+  }
 
   // As the bed was laid before tiles (the same expressions, so the same doubles).
   Vec<3> position(int i, int j, size_t c, int q) const {
@@ -78,16 +99,6 @@ class BedWallSource final : public WallSource<3> {
     const double dbdx = i1 > i0 ? (at(i1, j) - at(i0, j)) / (bed.cx(i1) - bed.cx(i0)) : 0.0;
     const double dbdy = j1 > j0 ? (at(i, j1) - at(i, j0)) / (bed.cy(j1) - bed.cy(j0)) : 0.0;
     return Vec<3>(-dbdx, -dbdy, 1.0).normalized();
-  }
-
-  template <class F>
-  void for_columns(int64_t t, F&& f) const {
-    const Grid& bed = m_->bed;
-    const int ix = static_cast<int>(t % grid_.nx), iy = static_cast<int>(t / grid_.nx);
-    const int i0 = ix * kBedTileColumns, i1 = std::min(bed.nx, i0 + kBedTileColumns);
-    const int j1 = bed.ny - 1 - iy * kBedTileColumns, j0 = std::max(0, j1 - kBedTileColumns + 1);
-    for (int j = j0; j <= j1; ++j)
-      for (int i = i0; i < i1; ++i) f(i, j, static_cast<size_t>(j) * bed.nx + i);
   }
 };
 

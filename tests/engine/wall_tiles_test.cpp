@@ -17,33 +17,51 @@ namespace {
 constexpr double kDp = 0.1;
 constexpr int kColumns = 150, kRows = 12, kLayers = 3, kTile = 2;
 
-// A flat bed at z = 0: kColumns x kRows columns of kLayers particles, in tiles of kTile x kTile columns.
+// A flat bed at z = 0: kColumns x kRows columns of `layers` particles, in tiles of kTile x kTile columns, each
+// tile one slab of a layer when cut in depth (top down; ids in the order of the tiles).
 class PlaneSource final : public WallSource<3> {
  public:
+  explicit PlaneSource(int layers = kLayers, bool cut_in_depth = false) : layers_(layers), cut_(cut_in_depth) {}
   WallTileGrid tiles() const override {
     WallTileGrid g;
     g.size = kTile * kDp;
     g.nx = kColumns / kTile;
     g.ny = kRows / kTile;
+    if (cut_) {
+      g.slab = kDp;  // one layer a slab: its particles at one height
+      g.slab_extent = 0;
+      g.spread = 0.5 - 0.5 / kTile;  // a tile's particles sit half a column inside it
+      for (int64_t k = 0; k <= g.columns(); ++k) g.column_first.push_back(k * layers_);
+      g.column_top.assign(static_cast<size_t>(g.columns()), -0.5 * kDp);
+    }
     return g;
   }
   void lay(int64_t t, std::vector<Vec<3>>& pos, std::vector<Vec<3>>& normals, std::vector<uint32_t>& tags) const override {
-    const int64_t ix = t % (kColumns / kTile), iy = t / (kColumns / kTile);
+    const int64_t column = cut_ ? t / layers_ : t;
+    const int q0 = cut_ ? static_cast<int>(t % layers_) : 0, q1 = cut_ ? q0 + 1 : layers_;
+    const int64_t ix = column % (kColumns / kTile), iy = column / (kColumns / kTile);
     for (int64_t j = iy * kTile; j < (iy + 1) * kTile; ++j)
       for (int64_t i = ix * kTile; i < (ix + 1) * kTile; ++i)
-        for (int q = 0; q < kLayers; ++q) {
+        for (int q = q0; q < q1; ++q) {
           pos.push_back(Vec<3>((i + 0.5) * kDp, (j + 0.5) * kDp, -(q + 0.5) * kDp));
           normals.push_back(Vec<3>::UnitZ());
           tags.push_back(1);
         }
   }
-  uint64_t first_index(int64_t t) const override { return static_cast<uint64_t>(t) * kTile * kTile * kLayers; }
-  uint64_t total() const override { return uint64_t{kColumns} * kRows * kLayers; }
-  Vec<3> lowest() const override { return Vec<3>(0.5 * kDp, 0.5 * kDp, -(kLayers - 0.5) * kDp); }
+  uint64_t first_index(int64_t t) const override {
+    return static_cast<uint64_t>(t) * kTile * kTile * (cut_ ? 1 : layers_);
+  }
+  uint64_t total() const override { return uint64_t{kColumns} * kRows * layers_; }
+  Vec<3> lowest() const override { return Vec<3>(0.5 * kDp, 0.5 * kDp, -(layers_ - 0.5) * kDp); }
+
+ private:
+  int layers_;
+  bool cut_;
 };
 
 // Water 0.6 x 0.6 x 0.3 m sliding along +x at 6 m/s over the bed, with side walls of its own (fixed particles).
-SceneSetup<3> sliding_block(bool bed_as_source, BoundaryPressure walls, double neighbour_skin = 0.0) {
+SceneSetup<3> sliding_block(bool bed_as_source, BoundaryPressure walls, double neighbour_skin = 0.0,
+                            const PlaneSource& plane = PlaneSource()) {
   SceneSetup<3> s;
   s.config.dp = kDp;
   s.config.neighbour_skin = neighbour_skin;
@@ -60,9 +78,8 @@ SceneSetup<3> sliding_block(bool bed_as_source, BoundaryPressure walls, double n
   for (int i = 0; i < kColumns; ++i)  // side walls along the channel: fixed, always alive
     for (int q = 0; q < 4; ++q)
       for (double y : {-0.5 * kDp, (kRows + 0.5) * kDp}) s.boundary.add(Vec<3>((i + 0.5) * kDp, y, (q + 0.5) * kDp), 1000, m0, 0, 2);
-  const PlaneSource plane;
   if (bed_as_source) {
-    s.wall_source = std::make_shared<PlaneSource>();
+    s.wall_source = std::make_shared<PlaneSource>(plane);
   } else {
     std::vector<Vec<3>> pos, normals;
     std::vector<uint32_t> tags;
@@ -152,6 +169,39 @@ TEST(WallTiles, LayingTheBedNearTheFlowChangesNothingInTheResult) {
     if (skin > 0) {
       EXPECT_LT(whole.neighbour_list_builds(), 400 / 2) << "the candidates should outlive a step";
     }
+  }
+  omp_set_num_threads(threads);
+}
+
+// A bed ten layers deep, cut in depth a layer a tile: the block (its lowest particles at z = dp / 2) needs
+// none of the layers more than its support 2h = 0.26 m below it, so none under z = -0.5 m (more than twice
+// the support below the flow, margin for the reach's motion allowance) is ever alive, while every bed
+// particle within 2h of the flow is, at every step, and the run is the bed laid whole's to the bit (one thread).
+TEST(WallTiles, ABedCutInDepthLaysOnlyTheLayersWithinReach) {
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const PlaneSource deep(10, true);
+  for (BoundaryPressure walls : {BoundaryPressure::dbc, BoundaryPressure::extrapolated}) {
+    SCOPED_TRACE(boundary_pressure_names()[static_cast<int>(walls)]);
+    Solver<3> whole(sliding_block(false, walls, 0.3, deep)), near(sliding_block(true, walls, 0.3, deep));
+    const size_t fixed = 2 * kColumns * 4;
+    size_t worst_missing = 0;
+    double deepest = 0;
+    for (int k = 0; k < 300; ++k) {
+      whole.step();
+      near.step();
+      worst_missing = std::max(worst_missing, missing_walls(near, deep, fixed));
+      for (size_t b = 0; b < near.boundary().size(); ++b)
+        if (near.boundary().id[b] >= fixed) deepest = std::min(deepest, near.boundary().pos[2][b]);
+    }
+    EXPECT_EQ(worst_missing, 0u);
+    EXPECT_GT(deepest, -0.5);
+    EXPECT_GT(near.boundary_generation(), 1u) << "the walls alive should change as the block slides";
+    size_t differ = 0;
+    for (size_t i = 0; i < whole.fluid().size(); ++i)
+      for (int d = 0; d < 3; ++d)
+        differ += whole.fluid().pos[d][i] != near.fluid().pos[d][i] || whole.fluid().vel[d][i] != near.fluid().vel[d][i];
+    EXPECT_EQ(differ, 0u);
   }
   omp_set_num_threads(threads);
 }

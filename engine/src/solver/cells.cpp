@@ -101,6 +101,10 @@ void Solver<D>::sort_and_build_cells() {
       permute_real(vel_saved_[d]);
     }
   }
+  if (I.tile_check_reach >= 0 && I.tile_check_pos[0].size() == n)
+    for (int d = 0; d < D; ++d) permute_real(I.tile_check_pos[d]);
+  else
+    I.tile_check_reach = -1;
   permute_real(fluid_.rho);
   permute_real(fluid_.mass);
   if (config_.integrator == Integrator::verlet) permute_real(rho_saved_);

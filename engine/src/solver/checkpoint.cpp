@@ -28,7 +28,8 @@ void read_particles(StateReader& in, ParticleArrays<D>& p) {
 
 // What must match between the setup that wrote a checkpoint and the one reading it.
 template <int D>
-void check_same_setup(StateReader& in, const SolverConfig& c, size_t materials, uint64_t described, bool source) {
+void check_same_setup(StateReader& in, const SolverConfig& c, size_t materials, uint64_t described, bool source,
+                      int64_t tiles) {
   const auto mismatch = [&](const char* what) { in.fail(std::string("is of another setup: its ") + what + " differs"); };
   if (in.value<int>() != D) mismatch("dimension");
   if (in.value<real>() != c.dp) mismatch("dp");
@@ -39,6 +40,7 @@ void check_same_setup(StateReader& in, const SolverConfig& c, size_t materials, 
   if (in.value<uint64_t>() != materials) mismatch("material count");
   if (in.value<uint64_t>() != described) mismatch("wall particle count");
   if (in.value<int>() != static_cast<int>(source)) mismatch("wall source (walls laid near the flow or whole)");
+  if (in.value<int64_t>() != tiles) mismatch("wall tile count (how the wall source is cut)");
 }
 
 }  // namespace
@@ -50,7 +52,7 @@ void Solver<D>::save_state(StateWriter& out) const {
   out.value<int>(D), out.value(config_.dp), out.value(config_.smoothing_length), out.value(config_.speed_of_sound);
   out.value<int>(static_cast<int>(config_.integrator)), out.value(config_.neighbour_skin);
   out.value<uint64_t>(materials_.size()), out.value<uint64_t>(boundary_described());
-  out.value<int>(wall_source_ ? 1 : 0);
+  out.value<int>(wall_source_ ? 1 : 0), out.value<int64_t>(wall_source_ ? I.tiles.count() : 0);
   out.value(time_), out.value(steps_), out.value(max_mach_), out.value(min_dt_seen_), out.value(stats_);
   out.value(viscous_summary_);
   out.values(mass_.initial), out.values(mass_.current), out.values(mass_.outflow), out.values(mass_.inflow);
@@ -90,7 +92,8 @@ void Solver<D>::restore_neighbour_candidates() {
 template <int D>
 void Solver<D>::load_state(StateReader& in) {
   in.expect("solver");
-  check_same_setup<D>(in, config_, materials_.size(), boundary_described(), wall_source_ != nullptr);
+  check_same_setup<D>(in, config_, materials_.size(), boundary_described(), wall_source_ != nullptr,
+                      wall_source_ ? impl_->tiles.count() : 0);
   in.value(time_), in.value(steps_), in.value(max_mach_), in.value(min_dt_seen_), in.value(stats_);
   in.value(viscous_summary_);
   in.values(mass_.initial), in.values(mass_.current), in.values(mass_.outflow), in.values(mass_.inflow);

@@ -131,6 +131,11 @@ struct Solver<D>::Impl {
   std::vector<uint32_t> tile_mark;
   uint32_t mark_stamp = 0;
   std::vector<int64_t> live_tiles;  // ascending
+  // Where the flow stood when every tile within tile_check_reach of it was last known alive (permuted with
+  // the fluid by the cell sort; reach < 0: not known). Until a particle has moved farther than that reach
+  // less the one it needs now, no tile it needs can be missing, and the step's check is skipped.
+  std::array<std::vector<real>, D> tile_check_pos;
+  real tile_check_reach = -1;
 
   std::vector<std::pair<uint64_t, uint32_t>> sort_buf;
   std::vector<real> scratch_real;

@@ -17,7 +17,11 @@ namespace {
 // onto new ground, not every step.
 constexpr real kLayAhead = 0.5;  // [dp]
 
-// f(t) for every tile the box [p - reach, p + reach] touches.
+// How far x lies outside [c - spread, c + spread] (0 inside).
+inline real gap(real x, real c, real spread) { return std::max<real>(0, std::abs(x - c) - spread); }
+
+// f(t) for every tile within `reach` of p: the columns whose particles lie within reach horizontally and, where
+// the columns are cut in depth, the slabs within what is left of it vertically (a sphere about p, not its box).
 template <int D, class F>
 void for_tiles_near(const WallTileGrid& g, const Vec<D>& p, real reach, F&& f) {
   auto range = [&](real x, real origin, int64_t n, int64_t& lo, int64_t& hi) {
@@ -28,8 +32,25 @@ void for_tiles_near(const WallTileGrid& g, const Vec<D>& p, real reach, F&& f) {
   int64_t x0, x1, y0 = 0, y1 = 0;
   range(p[0], g.x0, g.nx, x0, x1);
   if constexpr (D == 3) range(p[1], g.y0, g.ny, y0, y1);
-  for (int64_t iy = y0; iy <= y1; ++iy)
-    for (int64_t ix = x0; ix <= x1; ++ix) f(iy * g.nx + ix);
+  const real reach2 = reach * reach, spread = g.spread * g.size;
+  for (int64_t iy = y0; iy <= y1; ++iy) {
+    const real gy = D == 3 ? gap(p[1], g.y0 + (static_cast<real>(iy) + 0.5) * g.size, spread) : real(0);
+    for (int64_t ix = x0; ix <= x1; ++ix) {
+      const real gx = gap(p[0], g.x0 + (static_cast<real>(ix) + 0.5) * g.size, spread), across2 = gx * gx + gy * gy;
+      if (across2 > reach2) continue;
+      const int64_t k = iy * g.nx + ix;
+      if (!(g.slab > 0)) {
+        f(k);
+        continue;
+      }
+      // Slab s spans [top - s slab - extent, top - s slab]: those meeting [z - up, z + up].
+      const real up = std::sqrt(reach2 - across2), depth = g.column_top[k] - p[D - 1];
+      const int64_t n = g.column_first[k + 1] - g.column_first[k];
+      const int64_t s0 = std::max<int64_t>(0, static_cast<int64_t>(std::ceil((depth - up - g.slab_extent) / g.slab)));
+      const int64_t s1 = std::min<int64_t>(n - 1, static_cast<int64_t>(std::floor((depth + up) / g.slab)));
+      for (int64_t s = s0; s <= s1; ++s) f(g.column_first[k] + s);
+    }
+  }
 }
 
 // Keeps the entries of v whose keep[k] is set, in order.
@@ -49,19 +70,62 @@ uint64_t Solver<D>::boundary_described() const {
 }
 
 template <int D>
+bool Solver<D>::wall_tiles_missing(real reach) const {
+  const auto& I = *impl_;
+  const size_t n = fluid_.size();
+  const WallTileGrid& g = I.tiles;
+  const char* live = I.tile_live.data();
+  bool missing = false;
+#pragma omp parallel for schedule(static) reduction(|| : missing)
+  for (size_t i = 0; i < n; ++i)
+    for_tiles_near<D>(g, fluid_.position(i), reach, [&](int64_t t) { missing = missing || !live[t]; });
+  return missing;
+}
+
+template <int D>
+bool Solver<D>::wall_tiles_known_alive(real need) const {
+  const auto& I = *impl_;
+  const size_t n = fluid_.size();
+  if (I.tile_check_reach < 0 || I.tile_check_pos[0].size() != n) return false;
+  real moved2 = 0;
+#pragma omp parallel for schedule(static) reduction(max : moved2)
+  for (size_t i = 0; i < n; ++i) {
+    real dd = 0;
+    for (int d = 0; d < D; ++d) {
+      const real u = fluid_.pos[d][i] - I.tile_check_pos[d][i];
+      dd += u * u;
+    }
+    moved2 = std::max(moved2, dd);
+  }
+  return std::sqrt(moved2) + need <= I.tile_check_reach;
+}
+
+template <int D>
+void Solver<D>::remember_wall_check(real reach) {
+  auto& I = *impl_;
+  for (int d = 0; d < D; ++d) I.tile_check_pos[d] = fluid_.pos[d];
+  I.tile_check_reach = reach;
+}
+
+// The step's check, then a rebuild if a tile within reach is not alive. The check is skipped while the flow
+// has not moved out of what the last one verified; one that finds every tile alive a little farther out
+// (half the lay-ahead) is remembered, so the next checks are skipped until the flow moves that far. Rebuilds
+// happen at the same steps either way.
+template <int D>
 void Solver<D>::refresh_wall_tiles(bool force) {
   auto& I = *impl_;
   const size_t n = fluid_.size();
   const real h = config_.smoothing_length;
   const real need = 2.0 * h + config_.cfl * h * std::max<real>(1.0, 2.0 * stats_.max_speed / config_.speed_of_sound);
   if (!force) {
-    bool missing = false;
-    const WallTileGrid g = I.tiles;
-    const char* live = I.tile_live.data();
-#pragma omp parallel for schedule(static) reduction(|| : missing)
-    for (size_t i = 0; i < n; ++i)
-      for_tiles_near<D>(g, fluid_.position(i), need, [&](int64_t t) { missing = missing || !live[t]; });
-    if (!missing) return;
+    if (wall_tiles_known_alive(need)) return;
+    const real verified = need + 0.5 * kLayAhead * config_.dp;
+    if (!wall_tiles_missing(verified)) {
+      remember_wall_check(verified);
+      return;
+    }
+    I.tile_check_reach = -1;
+    if (!wall_tiles_missing(need)) return;
   }
   if (++I.mark_stamp == 0) {
     std::fill(I.tile_mark.begin(), I.tile_mark.end(), 0u);
@@ -89,6 +153,7 @@ void Solver<D>::refresh_wall_tiles(bool force) {
   sort_boundary();
   ++boundary_generation_;
   boundary_peak_ = std::max(boundary_peak_, boundary_.size());
+  remember_wall_check(need + kLayAhead * config_.dp);
   if (max_particles_ > 0 && static_cast<long>(n + boundary_.size()) > max_particles_) {
     std::ostringstream s;
     s << fmt_time(time_) << ": " << boundary_.size() << " wall particles alive near " << n
@@ -119,6 +184,7 @@ void Solver<D>::restore_wall_tiles(const std::vector<int64_t>& live) {
     lay_tile(t);
   }
   I.live_tiles = live;
+  I.tile_check_reach = -1;  // the flow is the checkpoint's: checked afresh at the next step
   sort_boundary();
 }
 
@@ -179,6 +245,12 @@ template uint64_t Solver<2>::boundary_described() const;
 template uint64_t Solver<3>::boundary_described() const;
 template void Solver<2>::refresh_wall_tiles(bool);
 template void Solver<3>::refresh_wall_tiles(bool);
+template bool Solver<2>::wall_tiles_missing(real) const;
+template bool Solver<3>::wall_tiles_missing(real) const;
+template bool Solver<2>::wall_tiles_known_alive(real) const;
+template bool Solver<3>::wall_tiles_known_alive(real) const;
+template void Solver<2>::remember_wall_check(real);
+template void Solver<3>::remember_wall_check(real);
 template void Solver<2>::sort_boundary();
 template void Solver<2>::lay_tile(int64_t);
 template void Solver<2>::keep_boundary(const std::vector<char>&);

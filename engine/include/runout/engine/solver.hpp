@@ -349,6 +349,9 @@ class Solver {
   // wall_tiles.cpp: lays the wall source's tiles the flow needs (all of them missing or `force`), drops those
   // it left, and sorts the boundary by cell.
   void refresh_wall_tiles(bool force);
+  bool wall_tiles_missing(real reach) const;  // a tile within reach of some flow particle is not alive
+  bool wall_tiles_known_alive(real need) const;  // by the last check, no tile within need can be missing
+  void remember_wall_check(real reach);
   void lay_tile(int64_t tile);  // appends its particles to the boundary (unsorted)
   void keep_boundary(const std::vector<char>& keep);  // drops the boundary particles whose keep[b] is 0
   void restore_wall_tiles(const std::vector<int64_t>& live);  // exactly these tiles alive (ascending), sorted

@@ -1,8 +1,9 @@
 #pragma once
 // Wall particles made on demand. A wall source (a terrain's bed) cuts its wall particles into tiles of a
-// regular horizontal grid and lays the particles of any tile when asked, always the same ones in the same
-// order. The solver keeps alive only the tiles within kernel reach of the flow (plus a margin), so a run's
-// memory and work follow the wetted footprint, not the source's area (docs/design.md, "Walls near the flow").
+// regular horizontal grid, optionally cut in depth too, and lays the particles of any tile when asked, always
+// the same ones in the same order. The solver keeps alive only the tiles within kernel reach of the flow (plus
+// a margin), so a run's memory and work follow the wetted footprint, not the source's area (docs/design.md,
+// "Walls near the flow").
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -11,12 +12,21 @@
 
 namespace runout {
 
-// Tile (ix, iy) holds the particles with x in [x0 + ix size, x0 + (ix + 1) size) and y in [y0 + iy size, ...)
-// (2D: the x axis only, ny = 1). Tiles are numbered t = iy nx + ix.
+// Column (ix, iy) holds the particles with x in [x0 + ix size, x0 + (ix + 1) size) and y in [y0 + iy size, ...)
+// (2D: the x axis only, ny = 1), numbered k = iy nx + ix; `spread` says how far they lie from its centre along
+// x and y (size / 2 when anywhere in it, 0 when all on its axis). Without slabs each column is one tile, t = k.
+// With them (3D, slab > 0) a column is cut in depth: its tiles are column_first[k] .. column_first[k + 1] - 1,
+// top down, tile column_first[k] + s holding the particles with z in [top - s slab - slab_extent, top - s slab]
+// (top = column_top[k]), so a thin flow wakes only the layers within its reach (docs/design.md).
 struct WallTileGrid {
   real x0 = 0, y0 = 0, size = 1;
   int64_t nx = 0, ny = 1;
-  int64_t count() const { return nx * ny; }
+  real spread = 0.5;  // [size]
+  real slab = 0, slab_extent = 0;
+  std::vector<int64_t> column_first;  // nx ny + 1 entries when slab > 0
+  std::vector<real> column_top;       // nx ny entries when slab > 0
+  int64_t columns() const { return nx * ny; }
+  int64_t count() const { return slab > 0 ? column_first.back() : columns(); }
 };
 
 template <int D>

@@ -187,9 +187,9 @@ struct TerrainModel {
   bool off_corridor(const Vec<3>& p) const;
 };
 
-// The bed's particles as a wall source (runout/engine/wall_source.hpp): tiles of kBedTileColumns x
-// kBedTileColumns bed columns; column (i, j) has bed_layers particles at bed - (k + 1/2) dp, tag 1.
-constexpr int kBedTileColumns = 1;
+// The bed's particles as a wall source (runout/engine/wall_source.hpp): column (i, j) has bed_layers particles
+// at bed - (k + 1/2) dp, tag 1, cut in depth into tiles of kBedSlabLayers layers (top down).
+constexpr int kBedSlabLayers = 1;
 std::shared_ptr<const WallSource<3>> bed_wall_source(std::shared_ptr<const TerrainModel> model);
 
 // Throws TerrainError naming the field at fault (terrain.dem, release.polygon, structures[k], dp) for bad
