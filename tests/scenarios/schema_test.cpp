@@ -342,3 +342,26 @@ TEST(Schema, DeclaredFieldsAreRefusedBeforeTheTerrainIsBuilt) {
   const terrain::DemCacheStats after = terrain::dem_cache_stats();
   EXPECT_EQ(after.hits + after.misses, before.hits + before.misses + 1);
 }
+
+// The materials' and boundaries' declared fields are checked each on its own as well: one refusal lists a
+// density out of range, a rheology parameter out of range, an unknown key, a duplicate material name and a
+// boundary's layers out of range and unknown type, in the scene's order.
+TEST(Schema, MaterialsAndBoundariesListEveryErrorAtOnce) {
+  json scene = json::parse(read(std::string(RUNOUT_SOURCE_DIR) + "/scenarios/validation/dam_break_2d.json"));
+  scene["materials"][0]["density"] = -5;
+  scene["materials"][0]["viscosity"] = -1;
+  scene["materials"][0]["colour"] = "brown";
+  scene["materials"].push_back({{"name", "water"}, {"rheology", "newtonian"}, {"density", 1000}});
+  scene["boundaries"][0]["layers"] = 0;
+  scene["boundaries"].push_back({{"type", "moat"}});
+  try {
+    (void)parse_scene(scene.dump());
+    FAIL() << "accepted";
+  } catch (const SceneError& e) {
+    std::vector<std::string> fields;
+    for (const auto& [field, message] : e.errors) fields.push_back(field);
+    EXPECT_EQ(fields, (std::vector<std::string>{"materials[0].colour", "materials[0].density", "materials[0].viscosity",
+                                                "materials[1].name", "boundaries[0].layers", "boundaries[1].type"}))
+        << e.what();
+  }
+}

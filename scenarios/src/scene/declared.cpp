@@ -1,10 +1,12 @@
 // Every error of a scene's declared fields at once, before anything is built: each key of the sections whose
-// keys are declared (output, numerics, monitors, and the terrain scene's sections) is checked on its own, so
+// keys are declared (materials, boundaries, output, numerics, monitors, and the terrain scene's sections) is
+// checked on its own, so
 // one refusal lists them all and costs no terrain build. The section readers read the same keys again, with the
 // scene's defaults and the rules across keys, when the scene is built.
+#include "boundary_types.hpp"
 #include "readers.hpp"
-
 #include "runout/engine/kernels.hpp"
+#include "runout/engine/rheology.hpp"
 
 namespace runout::scene_reader {
 namespace {
@@ -107,6 +109,69 @@ void check_monitors(const Collect& c, const json& j, int D) {
   }
 }
 
+// Each material: its name and rheology, then the density and the rheology's own parameters (declared by the
+// model, engine/src/rheology/; a required one missing is refused as the reader words it); names unique. Rules across a model's parameters
+// (make_rheology) are the reader's.
+void check_materials(const Collect& c, const json& j) {
+  if (!j.contains("materials")) return;  // the reader says it is missing
+  const json& ms = j["materials"];
+  if (!c([&] {
+        if (!ms.is_array() || ms.empty() || ms.size() > 16)
+          throw SceneError("materials", "must be an array of 1 to 16 materials");
+      }))
+    return;
+  std::set<std::string> names;
+  for (size_t k = 0; k < ms.size(); ++k) {
+    const std::string path = item("materials", k);
+    const RheologyModel* model = nullptr;
+    if (!c([&] {
+          if (!ms[k].is_object()) throw SceneError(path, "must be a JSON object");
+          const Fields head(ms[k], path, {"name", "rheology"}, true);
+          const std::string name = head.string("name");
+          if (!names.insert(name).second) throw SceneError(head.at("name"), "duplicate material name '" + name + "'");
+          model = &rheology_model(head.string("rheology", rheology_names()));
+        }))
+      continue;
+    std::vector<FieldSpec> fields = {number_field(material_density_spec())};
+    std::set<std::string> keys = {"name", "rheology"};
+    for (const auto& p : model->parameters) {
+      keys.insert(p.key);
+      if (ms[k].contains(p.key) || !p.required) fields.push_back(number_field(p));
+    }
+    check_section(c, ms[k], path, fields, 0, keys);
+    for (const auto& p : model->parameters)  // as the reader words it: the rheology and the range
+      if (p.required && !ms[k].contains(p.key))
+        c([&] {
+          throw SceneError(path + "." + p.key,
+                           "missing (required for rheology '" + model->name + "', in " + p.range_text() + ")");
+        });
+  }
+}
+
+// Each boundary: its type, then the keys every boundary has and its type's own.
+void check_boundaries(const Collect& c, const json& j, int D) {
+  if (!j.contains("boundaries")) return;
+  const json& bs = j["boundaries"];
+  if (!c([&] {
+        if (!bs.is_array()) throw SceneError("boundaries", "must be an array of boundary objects");
+      }))
+    return;
+  std::vector<std::string> names;
+  for (const auto* t : boundary_types()) names.push_back(t->name);
+  for (size_t k = 0; k < bs.size(); ++k) {
+    const std::string path = item("boundaries", k);
+    const BoundaryType* type = nullptr;
+    if (!c([&] {
+          if (!bs[k].is_object()) throw SceneError(path, "must be a JSON object");
+          type = &find_model(boundary_types(), Fields(bs[k], path, {"type"}, true).string("type", names), "boundary type");
+        }))
+      continue;
+    std::vector<FieldSpec> fields = boundary_common_fields();
+    fields.insert(fields.end(), type->fields.begin(), type->fields.end());
+    check_section(c, bs[k], path, fields, D, {"type"});
+  }
+}
+
 void check_terrain_sections(const Collect& c, const json& j) {
   if (j.contains("terrain")) {
     check_section(c, j["terrain"], "terrain", terrain_fields(), 3);
@@ -131,6 +196,8 @@ void check_terrain_sections(const Collect& c, const json& j) {
 void check_declared_fields(const json& j, int D) {
   Errors errors;
   const Collect c{errors};
+  check_materials(c, j);
+  check_boundaries(c, j, D);
   if (j.contains("output")) check_section(c, j["output"], "output", output_fields(), D);
   check_numerics(c, j, D);
   check_monitors(c, j, D);
