@@ -56,16 +56,16 @@ Scene parse_scene(const std::string& json_text, const std::filesystem::path& bas
     throw SceneError("(json)", std::string("malformed JSON: ") + e.what());
   }
   if (!j.is_object()) throw SceneError("(root)", "a scene must be a JSON object");
-  Fields top(j, "", top_keys());
+  Fields top(j, "", top_keys(), /*partial=*/true);  // an unknown key is listed by check_declared_fields
   Scene scene;
   scene.name = top.string_or("name", "scene");
   (void)top.string_or("description", "");
   scene.dimensions = static_cast<int>(top.integer("dimensions", 0, 2, 3));
   if (!top.has("dimensions")) throw SceneError("dimensions", "missing (required: 2 or 3)");
   check_declared_fields(j, scene.dimensions);
-  scene.dp = top.number("dp", 1e-4, 100.0);
+  scene.dp = read_parameter(top, field_spec(top_fields(), "dp").parameters.front());
   if (top.has("fidelity")) check_fidelity(top, scene.dp);
-  scene.duration = top.number("duration", 0.0, 1e5, true);
+  scene.duration = read_parameter(top, field_spec(top_fields(), "duration").parameters.front());
   scene.output = read_output(j, scene.duration);
   scene.canonical_json = j.dump();
   scene = scene.dimensions == 2 ? build<2>(j, std::move(scene), base_dir) : build<3>(j, std::move(scene), base_dir);

@@ -343,25 +343,51 @@ TEST(Schema, DeclaredFieldsAreRefusedBeforeTheTerrainIsBuilt) {
   EXPECT_EQ(after.hits + after.misses, before.hits + before.misses + 1);
 }
 
+namespace {
+
+// The fields a scene's refusal lists, in order (none if it is accepted).
+std::vector<std::string> refused_fields(const json& scene) {
+  std::vector<std::string> fields;
+  try {
+    (void)parse_scene(scene.dump());
+  } catch (const SceneError& e) {
+    for (const auto& [field, message] : e.errors) fields.push_back(field);
+  }
+  return fields;
+}
+
+json dam_break_2d() {
+  return json::parse(read(std::string(RUNOUT_SOURCE_DIR) + "/scenarios/validation/dam_break_2d.json"));
+}
+
+}  // namespace
+
 // The materials' and boundaries' declared fields are checked each on its own as well: one refusal lists a
 // density out of range, a rheology parameter out of range, an unknown key, a duplicate material name and a
 // boundary's layers out of range and unknown type, in the scene's order.
 TEST(Schema, MaterialsAndBoundariesListEveryErrorAtOnce) {
-  json scene = json::parse(read(std::string(RUNOUT_SOURCE_DIR) + "/scenarios/validation/dam_break_2d.json"));
+  json scene = dam_break_2d();
   scene["materials"][0]["density"] = -5;
   scene["materials"][0]["viscosity"] = -1;
   scene["materials"][0]["colour"] = "brown";
   scene["materials"].push_back({{"name", "water"}, {"rheology", "newtonian"}, {"density", 1000}});
   scene["boundaries"][0]["layers"] = 0;
   scene["boundaries"].push_back({{"type", "moat"}});
-  try {
-    (void)parse_scene(scene.dump());
-    FAIL() << "accepted";
-  } catch (const SceneError& e) {
-    std::vector<std::string> fields;
-    for (const auto& [field, message] : e.errors) fields.push_back(field);
-    EXPECT_EQ(fields, (std::vector<std::string>{"materials[0].colour", "materials[0].density", "materials[0].viscosity",
-                                                "materials[1].name", "boundaries[0].layers", "boundaries[1].type"}))
-        << e.what();
-  }
+  EXPECT_EQ(refused_fields(scene), (std::vector<std::string>{"materials[0].colour", "materials[0].density",
+                                                             "materials[0].viscosity", "materials[1].name",
+                                                             "boundaries[0].layers", "boundaries[1].type"}));
+}
+
+// The top level too, and the sections whose keys are plain lists: an unknown key at the top, in a fluid block
+// and in the limits, dp and duration out of range and a numerics error, in one refusal.
+TEST(Schema, TheTopLevelAndTheListedSectionsListEveryErrorAtOnce) {
+  json scene = dam_break_2d();
+  scene["colour"] = "brown";
+  scene["dp"] = 0;
+  scene["duration"] = 0;
+  scene["fluid"][0]["colour"] = "brown";
+  scene["limits"] = {{"max_particle", 10}};
+  scene["numerics"]["cfl"] = 7;
+  EXPECT_EQ(refused_fields(scene), (std::vector<std::string>{"colour", "dp", "duration", "fluid[0].colour",
+                                                             "limits.max_particle", "numerics.cfl"}));
 }

@@ -1,6 +1,6 @@
 // Every error of a scene's declared fields at once, before anything is built: each key of the sections whose
-// keys are declared (materials, boundaries, output, numerics, monitors, and the terrain scene's sections) is
-// checked on its own, so
+// keys are declared (the top level, materials, boundaries, fluid blocks, inlets, domain, limits, output,
+// numerics, monitors, and the terrain scene's sections) is checked on its own, so
 // one refusal lists them all and costs no terrain build. The section readers read the same keys again, with the
 // scene's defaults and the rules across keys, when the scene is built.
 #include "boundary_types.hpp"
@@ -191,13 +191,24 @@ void check_terrain_sections(const Collect& c, const json& j) {
       check_section(c, j["protected_zones"][k], item("protected_zones", k), protected_zone_fields(), 3);
 }
 
+// The sections whose keys are plain lists (fluid blocks, inlets, the domain, the limits): each key on its own.
+void check_listed_sections(const Collect& c, const json& j, int D) {
+  for (const auto& [key, keys] : {std::pair{"fluid", &fluid_block_keys()}, std::pair{"inlets", &inlet_keys()}})
+    if (j.contains(key) && j[key].is_array())  // an array of the wrong shape: its reader says so
+      for (size_t k = 0; k < j[key].size(); ++k) check_section(c, j[key][k], item(key, k), {}, D, *keys);
+  for (const auto& [key, keys] : {std::pair{"domain", &domain_keys()}, std::pair{"limits", &limits_keys()}})
+    if (j.contains(key)) check_section(c, j[key], key, {}, D, *keys);
+}
+
 }  // namespace
 
 void check_declared_fields(const json& j, int D) {
   Errors errors;
   const Collect c{errors};
+  check_section(c, j, "", top_fields(), D, top_keys());  // each top-level key, then dp and duration
   check_materials(c, j);
   check_boundaries(c, j, D);
+  check_listed_sections(c, j, D);
   if (j.contains("output")) check_section(c, j["output"], "output", output_fields(), D);
   check_numerics(c, j, D);
   check_monitors(c, j, D);

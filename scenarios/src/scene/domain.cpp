@@ -5,6 +5,12 @@
 #include <algorithm>
 
 namespace runout::scene_reader {
+
+const std::set<std::string>& domain_keys() {
+  static const std::set<std::string> keys = {"min", "max", "periodic", "outflow"};
+  return keys;
+}
+
 namespace {
 
 template <int D>
@@ -94,7 +100,7 @@ void check_inside(const SceneSetup<D>& setup, const SolverConfig& cfg) {
 
 template <int D>
 void read_domain_section(const Build<D>& b, SolverConfig& cfg) {
-  Fields dom(b.top.raw("domain"), "domain", {"min", "max", "periodic", "outflow"});
+  Fields dom(b.top.raw("domain"), "domain", domain_keys());
   if (dom.has("min")) {
     const auto v = dom.vector("min", D);
     for (int d = 0; d < D; ++d) cfg.domain_min[d] = v[d];

@@ -8,11 +8,17 @@
 #include "runout/engine/eos.hpp"
 
 namespace runout::scene_reader {
+
+const std::set<std::string>& fluid_block_keys() {
+  static const std::set<std::string> keys = {"shape", "min", "max", "origin", "size", "angle", "material"};
+  return keys;
+}
+
 namespace {
 
 template <int D>
 void read_fluid_block(Build<D>& b, const json& block, const std::string& path) {
-  Fields f(block, path, {"shape", "min", "max", "origin", "size", "angle", "material"});
+  Fields f(block, path, fluid_block_keys());
   f.string_or("shape", "box", {"box"});
   const OrientedBox<D> box = parse_box<D>(f);
   const std::string mat = f.string("material");

@@ -6,6 +6,12 @@
 #include <cmath>
 
 namespace runout::scene_reader {
+
+const std::set<std::string>& inlet_keys() {
+  static const std::set<std::string> keys = {"name", "material", "direction", "at", "min", "max", "speed", "discharge"};
+  return keys;
+}
+
 namespace {
 
 // The opening across the plane (2D: [z]; 3D: the other horizontal axis, then z) as lanes of dp over a flat
@@ -56,7 +62,7 @@ void read_speed(const Fields& f, const std::string& path, real area, InletSpec<D
 template <int D>
 InletSpec<D> read_inlet(Build<D>& b, const json& j, size_t k, const std::vector<std::string>& dirs) {
   const std::string path = item("inlets", k);
-  Fields f(j, path, {"name", "material", "direction", "at", "min", "max", "speed", "discharge"});
+  Fields f(j, path, inlet_keys());
   InletSpec<D> in;
   in.name = f.string_or("name", "inlet" + std::to_string(k + 1));
   const std::string mat = f.string("material");

@@ -4,6 +4,12 @@
 #include <algorithm>
 
 namespace runout::scene_reader {
+
+const std::set<std::string>& limits_keys() {
+  static const std::set<std::string> keys = {"max_particles"};
+  return keys;
+}
+
 namespace {
 
 // Lattice points of a box of extents e (the same floor rule as the geometry), for estimates.
@@ -78,7 +84,7 @@ void read_limits(Build<D>& b) {
   const json& j = b.j;
   const real dp = b.dp;
   Scene& scene = b.scene;
-  Fields lim(j.contains("limits") ? j["limits"] : json::object(), "limits", {"max_particles"});
+  Fields lim(j.contains("limits") ? j["limits"] : json::object(), "limits", limits_keys());
   scene.max_particles = lim.integer("max_particles", scene.max_particles, 1, 200'000'000);
   real est = 0;
   if (j.contains("fluid") && j["fluid"].is_array())

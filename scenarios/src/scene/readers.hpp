@@ -247,5 +247,12 @@ terrain::TerrainSpec parse_terrain_spec(const json& j, const std::filesystem::pa
 
 // The top-level keys of a scene.
 const std::set<std::string>& top_keys();
+// The top level's declared numbers (dp, duration): read by parse_scene, checked by check_declared_fields.
+const std::vector<FieldSpec>& top_fields();
+// The keys of a fluid block, an inlet, the domain and the limits, for their readers and check_declared_fields.
+const std::set<std::string>& fluid_block_keys();
+const std::set<std::string>& inlet_keys();
+const std::set<std::string>& domain_keys();
+const std::set<std::string>& limits_keys();
 
 }  // namespace runout::scene_reader

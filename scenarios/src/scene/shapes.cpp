@@ -103,6 +103,13 @@ const std::set<std::string>& top_keys() {
   return keys;
 }
 
+const std::vector<FieldSpec>& top_fields() {
+  static const std::vector<FieldSpec> fields = {
+      number_field({"dp", "m", 0.0, 1e-4, 100.0, false, false, true, "particle spacing"}),
+      number_field({"duration", "s", 0.0, 0.0, 1e5, true, false, true, "simulated time"})};
+  return fields;
+}
+
 template <int D>
 Build<D>::Build(const json& scene_json, Scene& s, const std::filesystem::path& dir)
     : j(scene_json), top(scene_json, "", top_keys()), scene(s), base_dir(dir), cfg(setup.config), dp(s.dp) {
