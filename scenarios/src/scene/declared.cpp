@@ -110,8 +110,8 @@ void check_monitors(const Collect& c, const json& j, int D) {
 }
 
 // Each material: its name and rheology, then the density and the rheology's own parameters (declared by the
-// model, engine/src/rheology/; a required one missing is refused as the reader words it); names unique. Rules across a model's parameters
-// (make_rheology) are the reader's.
+// model, engine/src/rheology/; a required one missing is refused as the reader words it); names unique. Rules
+// across a model's parameters (make_rheology) are the reader's.
 void check_materials(const Collect& c, const json& j) {
   if (!j.contains("materials")) return;  // the reader says it is missing
   const json& ms = j["materials"];
@@ -163,7 +163,8 @@ void check_boundaries(const Collect& c, const json& j, int D) {
     const BoundaryType* type = nullptr;
     if (!c([&] {
           if (!bs[k].is_object()) throw SceneError(path, "must be a JSON object");
-          type = &find_model(boundary_types(), Fields(bs[k], path, {"type"}, true).string("type", names), "boundary type");
+          const std::string name = Fields(bs[k], path, {"type"}, true).string("type", names);
+          type = &find_model(boundary_types(), name, "boundary type");
         }))
       continue;
     std::vector<FieldSpec> fields = boundary_common_fields();
