@@ -43,70 +43,76 @@ void check_same_setup(StateReader& in, const SolverConfig& c, size_t materials, 
   if (in.value<int64_t>() != tiles) mismatch("wall tile count (how the wall source is cut)");
 }
 
+// The run's clock, record and balances, in the checkpoint's order: one list for writing (StateWriter, const
+// parts) and reading (StateReader).
+template <class IO, class Record, class Balances, class Id>
+void transfer_record(IO& io, Record& r, Balances& b, Id& next_id) {
+  io.value(r.time), io.value(r.steps), io.value(r.max_mach), io.value(r.min_dt_seen), io.value(r.stats);
+  io.value(r.viscous);
+  io.values(b.mass.initial), io.values(b.mass.current), io.values(b.mass.outflow), io.values(b.mass.inflow);
+  io.value(b.potential_initial), io.value(b.potential_outflow), io.value(b.kinetic_inflow), io.value(next_id);
+}
+
 }  // namespace
 
 template <int D>
 void Solver<D>::save_state(StateWriter& out) const {
   const auto& I = *impl_;
+  const auto& pairs = I.pairs;
   out.label("solver");
   out.value<int>(D), out.value(config_.dp), out.value(config_.smoothing_length), out.value(config_.speed_of_sound);
   out.value<int>(static_cast<int>(config_.integrator)), out.value(config_.neighbour_skin);
   out.value<uint64_t>(materials_.size()), out.value<uint64_t>(boundary_described());
-  out.value<int>(wall_source_ ? 1 : 0), out.value<int64_t>(wall_source_ ? I.tiles.count() : 0);
-  out.value(time_), out.value(steps_), out.value(max_mach_), out.value(min_dt_seen_), out.value(stats_);
-  out.value(viscous_summary_);
-  out.values(mass_.initial), out.values(mass_.current), out.values(mass_.outflow), out.values(mass_.inflow);
-  out.value(potential_initial_), out.value(potential_outflow_), out.value(kinetic_inflow_), out.value(next_id_);
+  out.value<int>(wall_source_ ? 1 : 0), out.value<int64_t>(wall_source_ ? I.tiles.grid.count() : 0);
+  transfer_record(out, record_, balance_, next_id_);
   out.value<uint64_t>(boundary_peak_), out.value(boundary_generation_);
   out.label("fluid");
   write_particles(out, fluid_);
-  for (int d = 0; d < D; ++d) out.values(pos_saved_[d]), out.values(vel_saved_[d]);
-  out.values(rho_saved_);
+  for (int d = 0; d < D; ++d) out.values(saved_.pos[d]), out.values(saved_.vel[d]);
+  out.values(saved_.rho);
   out.label("walls");
-  out.values(I.live_tiles);
-  out.values(boundary_.id), out.values(boundary_.rho), out.values(boundary_rho_saved_);
+  out.values(I.tiles.alive);
+  out.values(boundary_.id), out.values(boundary_.rho), out.values(saved_.boundary_rho);
   // The Verlet list's candidates are remade from where the fluid stood at the last sort (the particles are still
   // in that sort's order), so a resumed run reuses them exactly when the uninterrupted one would.
   out.label("neighbours");
-  out.value(I.neighbour_rebuilds);
-  const bool kept = I.candidates_valid && I.fluid_at_sort == fluid_.size();
+  out.value(pairs.neighbour_rebuilds);
+  const bool kept = pairs.candidates_valid && pairs.fluid_at_sort == fluid_.size();
   out.value<int>(kept ? 1 : 0);
   if (kept)
-    for (int d = 0; d < D; ++d) out.values(I.pos_at_sort[d]);
+    for (int d = 0; d < D; ++d) out.values(pairs.pos_at_sort[d]);
 }
 
 // The cells and candidates of the last sort, at the positions it saw.
 template <int D>
 void Solver<D>::restore_neighbour_candidates() {
-  auto& I = *impl_;
-  for (int d = 0; d < D; ++d) std::swap(fluid_.pos[d], I.pos_at_sort[d]);
+  auto& pairs = impl_->pairs;
+  for (int d = 0; d < D; ++d) std::swap(fluid_.pos[d], pairs.pos_at_sort[d]);
   sort_and_build_cells();  // the particles are in this sort's order already: it indexes the cells again
   const real support = 2.0 * config_.smoothing_length;
   scan_cells_for_pairs(support + neighbour_skin(), true);
-  for (int d = 0; d < D; ++d) std::swap(fluid_.pos[d], I.pos_at_sort[d]);
-  I.fluid_at_sort = fluid_.size();
-  I.generation_at_sort = boundary_generation_;
-  I.candidates_valid = true;
+  for (int d = 0; d < D; ++d) std::swap(fluid_.pos[d], pairs.pos_at_sort[d]);
+  pairs.fluid_at_sort = fluid_.size();
+  pairs.generation_at_sort = boundary_generation_;
+  pairs.candidates_valid = true;
 }
 
 template <int D>
 void Solver<D>::load_state(StateReader& in) {
   in.expect("solver");
   check_same_setup<D>(in, config_, materials_.size(), boundary_described(), wall_source_ != nullptr,
-                      wall_source_ ? impl_->tiles.count() : 0);
-  in.value(time_), in.value(steps_), in.value(max_mach_), in.value(min_dt_seen_), in.value(stats_);
-  in.value(viscous_summary_);
-  in.values(mass_.initial), in.values(mass_.current), in.values(mass_.outflow), in.values(mass_.inflow);
-  in.value(potential_initial_), in.value(potential_outflow_), in.value(kinetic_inflow_), in.value(next_id_);
+                      wall_source_ ? impl_->tiles.grid.count() : 0);
+  transfer_record(in, record_, balance_, next_id_);
   boundary_peak_ = in.value<uint64_t>();
   in.value(boundary_generation_);
   in.expect("fluid");
   read_particles(in, fluid_);
-  for (int d = 0; d < D; ++d) in.values(pos_saved_[d]), in.values(vel_saved_[d]);
-  in.values(rho_saved_);
+  for (int d = 0; d < D; ++d) in.values(saved_.pos[d]), in.values(saved_.vel[d]);
+  in.values(saved_.rho);
   for (int d = 0; d < D; ++d)
-    if (pos_saved_[d].size() < fluid_.size() || vel_saved_[d].size() < fluid_.size()) in.fail("is short of saved positions");
-  if (rho_saved_.size() < fluid_.size()) in.fail("is short of saved densities");
+    if (saved_.pos[d].size() < fluid_.size() || saved_.vel[d].size() < fluid_.size())
+      in.fail("is short of saved positions");
+  if (saved_.rho.size() < fluid_.size()) in.fail("is short of saved densities");
   outflow_marked_.clear();
 
   in.expect("walls");
@@ -117,18 +123,18 @@ void Solver<D>::load_state(StateReader& in) {
   std::vector<uint32_t> ids;
   in.values(ids);
   if (ids != boundary_.id) in.fail("holds other wall particles than this setup lays");
-  in.values(boundary_.rho), in.values(boundary_rho_saved_);
-  if (boundary_.rho.size() != ids.size() || boundary_rho_saved_.size() != ids.size())
+  in.values(boundary_.rho), in.values(saved_.boundary_rho);
+  if (boundary_.rho.size() != ids.size() || saved_.boundary_rho.size() != ids.size())
     in.fail("has wall densities of the wrong length");
 
   in.expect("neighbours");
-  auto& I = *impl_;
-  in.value(I.neighbour_rebuilds);
-  I.candidates_valid = false;
+  auto& pairs = impl_->pairs;
+  in.value(pairs.neighbour_rebuilds);
+  pairs.candidates_valid = false;
   if (in.value<int>() == 1) {
     for (int d = 0; d < D; ++d) {
-      in.values(I.pos_at_sort[d]);
-      if (I.pos_at_sort[d].size() != fluid_.size()) in.fail("has neighbour-list positions of the wrong length");
+      in.values(pairs.pos_at_sort[d]);
+      if (pairs.pos_at_sort[d].size() != fluid_.size()) in.fail("has neighbour-list positions of the wrong length");
     }
     restore_neighbour_candidates();
   }

@@ -36,12 +36,12 @@ void Solver<D>::check_state() {
     for (int d = 0; d < D; ++d)
       if (!std::isfinite(fluid_.pos[d][i])) what = "position";
     std::ostringstream s;
-    s << fmt_time(time_) << ": fluid particle " << fluid_.id[i] << " has a non-finite " << what << " (step "
-      << steps_ << ", dt " << stats_.dt << " s)";
+    s << fmt_time(record_.time) << ": fluid particle " << fluid_.id[i] << " has a non-finite " << what << " (step "
+      << record_.steps << ", dt " << record_.stats.dt << " s)";
     throw SimulationError(s.str(), SimulationError::Cause::non_finite);
   }
-  stats_.max_speed = std::sqrt(vmax2);
-  max_mach_ = std::max(max_mach_, stats_.max_speed / config_.speed_of_sound);
+  record_.stats.max_speed = std::sqrt(vmax2);
+  record_.max_mach = std::max(record_.max_mach, record_.stats.max_speed / config_.speed_of_sound);
 
   long leak = std::numeric_limits<long>::max();
   int leak_region = -1;
@@ -88,7 +88,7 @@ void Solver<D>::check_state() {
     for (size_t k = 0; k < leak_regions_.size(); ++k)
       if (leak_regions_[k].contains(p)) leak_region = static_cast<int>(k);
     std::ostringstream s;
-    s << fmt_time(time_) << ": fluid particle " << fluid_.id[i] << " leaked through ";
+    s << fmt_time(record_.time) << ": fluid particle " << fluid_.id[i] << " leaked through ";
     if (leak_region >= 0)
       s << "boundary tag " << leak_regions_[leak_region].tag;
     else

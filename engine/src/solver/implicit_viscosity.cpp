@@ -39,9 +39,9 @@ namespace {
 template <int D, class Kernel, class ImplT>
 void viscous_weights(const PassContext<D>& c, const Kernel& kernel, ImplT& I, size_t n, real dt,
                      std::vector<real>& self, std::vector<real>& diag) {
-  auto& K = I.visc_pair;
-  K.resize(I.lists.buf.size());
-  for (size_t t = 0; t < K.size(); ++t) K[t].resize(I.lists.buf[t].size());
+  auto& K = I.pass.visc_pair;
+  K.resize(I.pairs.lists.buf.size());
+  for (size_t t = 0; t < K.size(); ++t) K[t].resize(I.pairs.lists.buf[t].size());
   self.resize(n);
   diag.resize(n);
   auto separation = [&](const std::array<const real*, D>& Q, uint32_t j, const Vec<D>& x) {
@@ -65,8 +65,8 @@ void viscous_weights(const PassContext<D>& c, const Kernel& kernel, ImplT& I, si
           Vec<D> xi;
           for (int d = 0; d < D; ++d) xi[d] = c.P[d][i];
           const uint32_t* list = I.list_of(i);
-          real* Ki = K[I.lists.thread[i]].data() + I.lists.off[i];
-          const uint32_t nfl = I.lists.nf[i], nbl = I.lists.nb[i];
+          real* Ki = K[I.pairs.lists.thread[i]].data() + I.pairs.lists.off[i];
+          const uint32_t nfl = I.pairs.lists.nf[i], nbl = I.pairs.lists.nb[i];
           const real mi = c.mass[i], mui = c.mu_eff[i], inv_rhoi = c.inv_rho[i];
           real sum = 0, wall = 0;
           for (uint32_t q = 0; q < nfl; ++q) {
@@ -111,8 +111,8 @@ void viscous_apply(ImplT& I, size_t n, const std::vector<real>& self, const Fric
       [&](real* A, real*, PassMaxima&) {
         I.for_each_fluid([&](uint32_t i) {
           const uint32_t* list = I.list_of(i);
-          const real* Ki = I.visc_pair[I.lists.thread[i]].data() + I.lists.off[i];
-          const uint32_t nfl = I.lists.nf[i];
+          const real* Ki = I.pass.visc_pair[I.pairs.lists.thread[i]].data() + I.pairs.lists.off[i];
+          const uint32_t nfl = I.pairs.lists.nf[i];
           real acc[D] = {};
           for (uint32_t q = 0; q < nfl; ++q) {
             const uint32_t j = list[q];
@@ -157,6 +157,7 @@ real dot(size_t nd, const real* a, const real* b) {
 template <int D>
 void Solver<D>::implicit_viscous_step(real dt) {
   auto& I = *impl_;
+  auto& pass = I.pass;
   const size_t n = fluid_.size();
   const size_t nd = n * D;
   const PassContext<D> c = pass_context();
@@ -165,9 +166,9 @@ void Solver<D>::implicit_viscous_step(real dt) {
                  [&](auto kernel) { viscous_weights<D>(c, kernel, I, n, dt, self, diag); });
   FrictionDrag<D> drag;
   drag.coef.assign(n, 0.0);
-  if (!I.friction_drag.empty()) {
-    for (int d = 0; d < D; ++d) drag.normal[d] = I.friction_normal[d].data();
-    for (size_t i = 0; i < n; ++i) drag.coef[i] = dt * fluid_.mass[i] * I.friction_drag[i];
+  if (!pass.friction_drag.empty()) {
+    for (int d = 0; d < D; ++d) drag.normal[d] = pass.friction_normal[d].data();
+    for (size_t i = 0; i < n; ++i) drag.coef[i] = dt * fluid_.mass[i] * pass.friction_drag[i];
   }
   std::vector<char> fixed(n, 0);
   if (!inlets_.empty())
@@ -177,7 +178,7 @@ void Solver<D>::implicit_viscous_step(real dt) {
 #pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; ++i)
     for (int d = 0; d < D; ++d) {
-      x[i * D + d] = fixed[i] ? fluid_.vel[d][i] : vel_saved_[d][i];
+      x[i * D + d] = fixed[i] ? fluid_.vel[d][i] : saved_.vel[d][i];
       b[i * D + d] = fixed[i] ? 0.0 : fluid_.mass[i] * fluid_.vel[d][i];
     }
   viscous_apply<D>(I, n, self, drag, fixed, x.data(), q.data());
@@ -217,9 +218,9 @@ void Solver<D>::implicit_viscous_step(real dt) {
     if (!fixed[i])
       for (int d = 0; d < D; ++d) fluid_.vel[d][i] = x[i * D + d];
   const real res = std::sqrt(res2);
-  stats_.viscous_iterations = it;
-  stats_.viscous_residual = res;
-  auto& s = viscous_summary_;
+  record_.stats.viscous_iterations = it;
+  record_.stats.viscous_residual = res;
+  auto& s = record_.viscous;
   ++s.solves;
   s.iterations += it;
   s.max_iterations = std::max<long>(s.max_iterations, it);

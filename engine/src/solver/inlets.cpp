@@ -143,13 +143,13 @@ void Solver<D>::impose_inlet_state() {
     if (!is_inlet_buffer(fluid_.tag[i])) continue;
     const auto& in = inlets_[fluid_.tag[i] & ~kInletBufferBit];
     const Vec<D> p = fluid_.position(i);
-    const Vec<D> v = in.speed_at(time_) * in.motion(in.lane_of(p, config_.dp));
+    const Vec<D> v = in.speed_at(record_.time) * in.motion(in.lane_of(p, config_.dp));
     for (int d = 0; d < D; ++d) {
       fluid_.vel[d][i] = v[d];
-      if (verlet) vel_saved_[d][i] = fluid_.vel[d][i];
+      if (verlet) saved_.vel[d][i] = fluid_.vel[d][i];
     }
     fluid_.rho[i] = inlet_density(in, p);
-    if (verlet) rho_saved_[i] = fluid_.rho[i];
+    if (verlet) saved_.rho[i] = fluid_.rho[i];
   }
 }
 
@@ -166,11 +166,11 @@ void Solver<D>::advance_inlets() {
     // Across the plane: it is flow from now on, and its place at the back of the buffer is taken.
     fluid_.tag[i] = 0;
     const uint16_t mat = fluid_.material[i];
-    mass_.inflow[mat] += fluid_.mass[i];
+    balance_.mass.inflow[mat] += fluid_.mass[i];
     real gx = 0, v2 = 0;
     for (int d = 0; d < D; ++d) gx += config_.gravity[d] * fluid_.pos[d][i], v2 += fluid_.vel[d][i] * fluid_.vel[d][i];
-    potential_initial_ -= fluid_.mass[i] * gx;
-    kinetic_inflow_ += 0.5 * fluid_.mass[i] * v2;
+    balance_.potential_initial -= fluid_.mass[i] * gx;
+    balance_.kinetic_inflow += 0.5 * fluid_.mass[i] * v2;
     p -= length * in.motion(in.lane_of(p, config_.dp));
     fluid_.add(p, fluid_.rho[i], fluid_.mass[i], mat, kInletBufferBit | k);
     fluid_.id.back() = next_id_++;
@@ -180,12 +180,12 @@ void Solver<D>::advance_inlets() {
   const size_t m = fluid_.size();
   if (m > n) {
     for (int d = 0; d < D; ++d) {
-      pos_saved_[d].resize(m);
-      vel_saved_[d].resize(m);
-      for (size_t i = n; i < m; ++i) pos_saved_[d][i] = fluid_.pos[d][i], vel_saved_[d][i] = fluid_.vel[d][i];
+      saved_.pos[d].resize(m);
+      saved_.vel[d].resize(m);
+      for (size_t i = n; i < m; ++i) saved_.pos[d][i] = fluid_.pos[d][i], saved_.vel[d][i] = fluid_.vel[d][i];
     }
-    rho_saved_.resize(m);
-    for (size_t i = n; i < m; ++i) rho_saved_[i] = fluid_.rho[i];
+    saved_.rho.resize(m);
+    for (size_t i = n; i < m; ++i) saved_.rho[i] = fluid_.rho[i];
   }
 }
 

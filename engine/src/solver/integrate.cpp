@@ -14,15 +14,18 @@ namespace runout {
 
 template <int D>
 const StepStats& Solver<D>::step() {
-  auto& I = *impl_;
+  const auto& cells = impl_->cells;
   if (wall_source_) refresh_wall_tiles(false);
   // The inlets' state first: the neighbour lists' reach depends on the speeds.
   if (!inlets_.empty()) impose_inlet_state();
   if (neighbour_lists_due()) sort_and_build_cells();
   evaluate(true);
-  const real dt = stats_.dt;
+  const real dt = record_.stats.dt;
   const size_t n = fluid_.size();
   const real rho0_b = config_.boundary_density;
+  const auto& acc = fluid_fields_.acc;
+  const auto& drho = fluid_fields_.drho;
+  const auto& wall_drho = wall_fields_.drho;
   // Density floor (config_.density_floor): the density at which the equation of state reaches the
   // material's tension floor (rho0 for a cohesionless material, whose pressure is floored at 0; none for a
   // liquid). Below it the pressure no longer changes, so nothing holds the continuity density: it drifts far
@@ -38,13 +41,6 @@ const StepStats& Solver<D>::step() {
     }
   }
   const real* rho_floor_of = rho_floor.data();
-  auto for_active_boundary = [&](auto&& f) {
-#pragma omp parallel for schedule(static)
-    for (size_t a = 0; a < I.active_bcells.size(); ++a) {
-      const uint32_t cb = I.active_bcells[a];
-      for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b) f(b);
-    }
-  };
 
   // A particle in contact with a wall loses the velocity component that takes it further in (an inelastic
   // contact: it never adds energy). The wall pressure holds a resting sheet but does not grow as a particle
@@ -58,11 +54,11 @@ const StepStats& Solver<D>::step() {
   const real* contact_friction_of = contact_friction.data();
   auto stop_wall_approach = [&](size_t i) {
     real vn = 0;
-    for (int d = 0; d < D; ++d) vn += fluid_.vel[d][i] * contact_normal_[d][i];
+    for (int d = 0; d < D; ++d) vn += fluid_.vel[d][i] * fluid_fields_.contact_normal[d][i];
     if (vn >= 0) return;
     real vt2 = 0;
     for (int d = 0; d < D; ++d) {
-      fluid_.vel[d][i] -= vn * contact_normal_[d][i];
+      fluid_.vel[d][i] -= vn * fluid_fields_.contact_normal[d][i];
       vt2 += fluid_.vel[d][i] * fluid_.vel[d][i];
     }
     const real mu = contact_friction_of[fluid_.material[i]];
@@ -82,70 +78,72 @@ const StepStats& Solver<D>::step() {
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; ++i) {
       for (int d = 0; d < D; ++d) {
-        pos_saved_[d][i] = fluid_.pos[d][i];
-        vel_saved_[d][i] = fluid_.vel[d][i];
-        fluid_.vel[d][i] += hdt * acc_[d][i];
+        saved_.pos[d][i] = fluid_.pos[d][i];
+        saved_.vel[d][i] = fluid_.vel[d][i];
+        fluid_.vel[d][i] += hdt * acc[d][i];
       }
-      rho_saved_[i] = fluid_.rho[i];
-      fluid_.rho[i] = std::max(rho_floor_of[fluid_.material[i]], fluid_.rho[i] + hdt * drho_[i]);
+      saved_.rho[i] = fluid_.rho[i];
+      fluid_.rho[i] = std::max(rho_floor_of[fluid_.material[i]], fluid_.rho[i] + hdt * drho[i]);
     }
     if (implicit) implicit_viscous_step(hdt);
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; ++i)
-      for (int d = 0; d < D; ++d) fluid_.pos[d][i] += hdt * vel_saved_[d][i];
-    for_active_boundary([&](uint32_t b) {
-      boundary_rho_saved_[b] = boundary_.rho[b];
-      boundary_.rho[b] = std::max(rho0_b, boundary_.rho[b] + hdt * boundary_drho_[b]);
+      for (int d = 0; d < D; ++d) fluid_.pos[d][i] += hdt * saved_.vel[d][i];
+    cells.for_each_active_wall([&](uint32_t b) {
+      saved_.boundary_rho[b] = boundary_.rho[b];
+      boundary_.rho[b] = std::max(rho0_b, boundary_.rho[b] + hdt * wall_drho[b]);
     });
     evaluate(false);
     // Corrector (thesis eq. 2.26); with the implicit viscous step the velocities then go through it, before
     // the wall contact and the positions see them.
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; ++i)
-      for (int d = 0; d < D; ++d) fluid_.vel[d][i] = vel_saved_[d][i] + dt * acc_[d][i];
+      for (int d = 0; d < D; ++d) fluid_.vel[d][i] = saved_.vel[d][i] + dt * acc[d][i];
     if (implicit) implicit_viscous_step(dt);
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; ++i) {
       stop_wall_approach(i);
-      for (int d = 0; d < D; ++d) fluid_.pos[d][i] = pos_saved_[d][i] + dt * 0.5 * (fluid_.vel[d][i] + vel_saved_[d][i]);
-      const real eps = -drho_[i] / fluid_.rho[i] * dt;
-      fluid_.rho[i] = std::max(rho_floor_of[fluid_.material[i]], rho_saved_[i] * (2.0 - eps) / (2.0 + eps));
+      for (int d = 0; d < D; ++d)
+        fluid_.pos[d][i] = saved_.pos[d][i] + dt * 0.5 * (fluid_.vel[d][i] + saved_.vel[d][i]);
+      const real eps = -drho[i] / fluid_.rho[i] * dt;
+      fluid_.rho[i] = std::max(rho_floor_of[fluid_.material[i]], saved_.rho[i] * (2.0 - eps) / (2.0 + eps));
     }
-    for_active_boundary([&](uint32_t b) {
-      const real eps = -boundary_drho_[b] / boundary_.rho[b] * dt;
-      boundary_.rho[b] = std::max(rho0_b, boundary_rho_saved_[b] * (2.0 - eps) / (2.0 + eps));
+    cells.for_each_active_wall([&](uint32_t b) {
+      const real eps = -wall_drho[b] / boundary_.rho[b] * dt;
+      boundary_.rho[b] = std::max(rho0_b, saved_.boundary_rho[b] * (2.0 - eps) / (2.0 + eps));
     });
   } else {
     // Verlet (thesis eq. 2.23-2.24): the saved arrays hold the values at n-1.
-    const bool euler = config_.verlet_reset_steps > 0 && (steps_ + 1) % config_.verlet_reset_steps == 0;
+    const bool euler = config_.verlet_reset_steps > 0 && (record_.steps + 1) % config_.verlet_reset_steps == 0;
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; ++i) {
       for (int d = 0; d < D; ++d) {
         const real v = fluid_.vel[d][i];
-        const real v_new = euler ? v + dt * acc_[d][i] : vel_saved_[d][i] + 2.0 * dt * acc_[d][i];
-        fluid_.pos[d][i] += dt * v + 0.5 * dt * dt * acc_[d][i];
-        vel_saved_[d][i] = v;
+        const real v_new = euler ? v + dt * acc[d][i] : saved_.vel[d][i] + 2.0 * dt * acc[d][i];
+        fluid_.pos[d][i] += dt * v + 0.5 * dt * dt * acc[d][i];
+        saved_.vel[d][i] = v;
         fluid_.vel[d][i] = v_new;
       }
       stop_wall_approach(i);
       const real r = fluid_.rho[i];
-      fluid_.rho[i] = std::max(rho_floor_of[fluid_.material[i]], euler ? r + dt * drho_[i] : rho_saved_[i] + 2.0 * dt * drho_[i]);
-      rho_saved_[i] = r;
+      fluid_.rho[i] =
+          std::max(rho_floor_of[fluid_.material[i]], euler ? r + dt * drho[i] : saved_.rho[i] + 2.0 * dt * drho[i]);
+      saved_.rho[i] = r;
     }
-    for_active_boundary([&](uint32_t b) {
+    cells.for_each_active_wall([&](uint32_t b) {
       const real r = boundary_.rho[b];
-      boundary_.rho[b] =
-          std::max(rho0_b, euler ? r + dt * boundary_drho_[b] : boundary_rho_saved_[b] + 2.0 * dt * boundary_drho_[b]);
-      boundary_rho_saved_[b] = r;
+      const real next = euler ? r + dt * wall_drho[b] : saved_.boundary_rho[b] + 2.0 * dt * wall_drho[b];
+      boundary_.rho[b] = std::max(rho0_b, next);
+      saved_.boundary_rho[b] = r;
     });
   }
 
-  time_ += dt;
-  ++steps_;
-  min_dt_seen_ = std::min(min_dt_seen_, dt);
+  record_.time += dt;
+  ++record_.steps;
+  record_.min_dt_seen = std::min(record_.min_dt_seen, dt);
   if (!inlets_.empty()) advance_inlets();
   check_state();
-  return stats_;
+  return record_.stats;
 }
 
 template const StepStats& Solver<2>::step();

@@ -64,16 +64,17 @@ struct ListWriter {
 template <int D>
 void Solver<D>::scan_cells_for_pairs(real radius, bool into_candidates) {
   auto& I = *impl_;
-  constexpr int kNb = Impl::kNb, kHalf = Impl::kHalf;
-  const size_t n = fluid_.size(), ncells = I.fcell_key.size();
+  auto& cells = I.cells;
+  constexpr int kNb = CellIndex<D>::kNb, kHalf = CellIndex<D>::kHalf;
+  const size_t n = fluid_.size(), ncells = cells.fcell_key.size();
   const real support2 = radius * radius;
   std::array<const real*, D> P, BP;
   for (int d = 0; d < D; ++d) P[d] = fluid_.pos[d].data(), BP[d] = boundary_.pos[d].data();
-  auto& L = into_candidates ? I.candidates : I.lists;
+  auto& L = into_candidates ? I.pairs.candidates : I.pairs.lists;
   size_lists(L, n);
 #pragma omp parallel
   {
-    ListWriter<typename Impl::PairLists> w(L);
+    ListWriter<PairLists> w(L);
     std::vector<real> r2buf;
     // Distances of a contiguous run first (a vector loop), then the branch-free compaction.
     auto scan = [&](const std::array<const real*, D>& Q, const Vec<D>& xs, uint32_t j0, uint32_t j1) {
@@ -93,20 +94,20 @@ void Solver<D>::scan_cells_for_pairs(real radius, bool into_candidates) {
     };
 #pragma omp for schedule(dynamic, 16)
     for (size_t c = 0; c < ncells; ++c) {
-      for (uint32_t i = I.fcell_begin[c]; i < I.fcell_begin[c + 1]; ++i) {
+      for (uint32_t i = cells.fcell_begin[c]; i < cells.fcell_begin[c + 1]; ++i) {
         Vec<D> xi;
         for (int d = 0; d < D; ++d) xi[d] = P[d][i];
         const size_t start = w.pos;
-        for (int k = 0; k < I.fnb_half_n[c]; ++k) {
-          const auto& blk = I.fnb_half[c * kHalf + k];
+        for (int k = 0; k < cells.fnb_half_n[c]; ++k) {
+          const auto& blk = cells.fnb_half[c * kHalf + k];
           // Block 0 is the particle's own column: only the higher indices (the pair's other half is listed by
           // the lower-index particle).
-          scan(P, xi - I.shifts[blk.shift], k == 0 ? i + 1 : blk.begin, blk.end);
+          scan(P, xi - cells.shifts[blk.shift], k == 0 ? i + 1 : blk.begin, blk.end);
         }
         const size_t nf = w.pos - start;
-        for (int k = 0; k < I.fnb_bound_n[c]; ++k) {
-          const auto& blk = I.fnb_bound[c * kNb + k];
-          scan(BP, xi - I.shifts[blk.shift], blk.begin, blk.end);
+        for (int k = 0; k < cells.fnb_bound_n[c]; ++k) {
+          const auto& blk = cells.fnb_bound[c * kNb + k];
+          scan(BP, xi - cells.shifts[blk.shift], blk.begin, blk.end);
         }
         w.record(i, start, nf);
       }
@@ -123,15 +124,15 @@ void Solver<D>::keep_pairs_in_support(real support) {
   const real support2 = support * support;
   std::array<const real*, D> P, BP;
   for (int d = 0; d < D; ++d) P[d] = fluid_.pos[d].data(), BP[d] = boundary_.pos[d].data();
-  const Vec<D> period = I.period;
+  const Vec<D> period = I.cells.period;
   bool periodic = false;
   for (int d = 0; d < D; ++d) periodic = periodic || period[d] > 0;
-  const auto& C = I.candidates;
-  auto& L = I.lists;
+  const auto& C = I.pairs.candidates;
+  auto& L = I.pairs.lists;
   size_lists(L, n);
 #pragma omp parallel
   {
-    ListWriter<typename Impl::PairLists> w(L);
+    ListWriter<PairLists> w(L);
     auto keep = [&](const std::array<const real*, D>& Q, const Vec<D>& xi, const uint32_t* js, uint32_t m) {
       uint32_t* out = w.reserve(m);
       for (uint32_t k = 0; k < m; ++k) {
@@ -163,21 +164,21 @@ void Solver<D>::keep_pairs_in_support(real support) {
 // are scanned (within support + skin) only after a sort and remembered with where the fluid stood.
 template <int D>
 void Solver<D>::update_pair_lists(real support) {
-  auto& I = *impl_;
+  auto& pairs = impl_->pairs;
   const real skin = neighbour_skin();
   if (skin <= 0) {
     scan_cells_for_pairs(support, false);
-    ++I.neighbour_rebuilds;
+    ++pairs.neighbour_rebuilds;
     return;
   }
-  if (!I.candidates_valid) {
+  if (!pairs.candidates_valid) {
     scan_cells_for_pairs(support + skin, true);
-    for (int d = 0; d < D; ++d) I.pos_at_sort[d] = fluid_.pos[d];
-    I.fluid_at_sort = fluid_.size();
-    I.generation_at_sort = boundary_generation_;
-    I.candidates_valid = true;
-    ++I.neighbour_rebuilds;
-  } else if (I.generation_at_sort != boundary_generation_) {
+    for (int d = 0; d < D; ++d) pairs.pos_at_sort[d] = fluid_.pos[d];
+    pairs.fluid_at_sort = fluid_.size();
+    pairs.generation_at_sort = boundary_generation_;
+    pairs.candidates_valid = true;
+    ++pairs.neighbour_rebuilds;
+  } else if (pairs.generation_at_sort != boundary_generation_) {
     rescan_at_sort();
   }
   keep_pairs_in_support(support);
@@ -188,13 +189,13 @@ void Solver<D>::update_pair_lists(real support) {
 // walls changed (a bed laid near the flow gives the run of a bed laid whole, to the bit).
 template <int D>
 void Solver<D>::rescan_at_sort() {
-  auto& I = *impl_;
-  for (int d = 0; d < D; ++d) std::swap(fluid_.pos[d], I.pos_at_sort[d]);
+  auto& pairs = impl_->pairs;
+  for (int d = 0; d < D; ++d) std::swap(fluid_.pos[d], pairs.pos_at_sort[d]);
   index_wall_blocks();
   scan_cells_for_pairs(2.0 * config_.smoothing_length + neighbour_skin(), true);
-  for (int d = 0; d < D; ++d) std::swap(fluid_.pos[d], I.pos_at_sort[d]);
-  I.generation_at_sort = boundary_generation_;
-  ++I.neighbour_rebuilds;
+  for (int d = 0; d < D; ++d) std::swap(fluid_.pos[d], pairs.pos_at_sort[d]);
+  pairs.generation_at_sort = boundary_generation_;
+  ++pairs.neighbour_rebuilds;
 }
 
 // Whether the cells must be sorted (and the candidates scanned) before this step's first evaluation: always
@@ -205,9 +206,9 @@ void Solver<D>::rescan_at_sort() {
 // on it by its own displacement only.
 template <int D>
 bool Solver<D>::neighbour_lists_due() const {
-  const auto& I = *impl_;
+  const auto& pairs = impl_->pairs;
   const real skin = neighbour_skin();
-  if (skin <= 0 || !I.candidates_valid || fluid_.size() != I.fluid_at_sort || !outflow_marked_.empty()) return true;
+  if (skin <= 0 || !pairs.candidates_valid || fluid_.size() != pairs.fluid_at_sort || !outflow_marked_.empty()) return true;
   const size_t n = fluid_.size();
   real disp2 = 0, speed2 = 0;
   bool leaving = false;
@@ -215,7 +216,7 @@ bool Solver<D>::neighbour_lists_due() const {
   for (size_t i = 0; i < n; ++i) {
     real dd = 0, vv = 0;
     for (int d = 0; d < D; ++d) {
-      const real u = fluid_.pos[d][i] - I.pos_at_sort[d][i];
+      const real u = fluid_.pos[d][i] - pairs.pos_at_sort[d][i];
       dd += u * u, vv += fluid_.vel[d][i] * fluid_.vel[d][i];
     }
     disp2 = std::max(disp2, dd), speed2 = std::max(speed2, vv);
@@ -227,16 +228,17 @@ bool Solver<D>::neighbour_lists_due() const {
 
 template <int D>
 long Solver<D>::neighbour_list_builds() const {
-  return impl_->neighbour_rebuilds;
+  return impl_->pairs.neighbour_rebuilds;
 }
 
 template <int D>
 size_t Solver<D>::missing_neighbour_pairs() const {
   const auto& I = *impl_;
+  const auto& cells = I.cells;
   // The next step sorts and scans afresh, or scans the walls again.
-  if (neighbour_lists_due() || I.generation_at_sort != boundary_generation_) return 0;
+  if (neighbour_lists_due() || I.pairs.generation_at_sort != boundary_generation_) return 0;
   const real support = 2.0 * config_.smoothing_length, support2 = support * support;
-  const auto& C = I.candidates;
+  const auto& C = I.pairs.candidates;
   const size_t n = fluid_.size(), nb = boundary_.size();
   std::unordered_set<uint64_t> fluid_pairs, wall_pairs;
   for (size_t i = 0; i < n; ++i) {
@@ -249,7 +251,7 @@ size_t Solver<D>::missing_neighbour_pairs() const {
     real r2 = 0;
     for (int d = 0; d < D; ++d) {
       real dxd = fluid_.pos[d][i] - q.pos[d][j];
-      if (I.period[d] > 0) dxd -= I.period[d] * std::round(dxd / I.period[d]);
+      if (cells.period[d] > 0) dxd -= cells.period[d] * std::round(dxd / cells.period[d]);
       r2 += dxd * dxd;
     }
     return r2;

@@ -66,6 +66,8 @@ struct PassContext {
 // Fields of the pass accumulators shared by every pass that carries continuity: the velocity divergence and
 // the density-diffusion sum come first.
 constexpr int kDiv = 0, kDiff = 1;
+// A wall particle's accumulator record in the passes that carry its continuity (DBC): the divergence alone.
+constexpr int kWallFields = 1;
 
 // Continuity (and density diffusion) of the fluid pair (i, j), i's share into div and diff, j's into its
 // accumulator record Aj.

@@ -32,7 +32,7 @@ void velocity_gradient_pass(const PassContext<D>& c, const Kernel& kernel, ImplT
   constexpr int kPw = 2, kWw = 3, kL = 4;  // L: D*D fields, row-major
   constexpr int kS1 = kL + D * D;
   I.accumulate(
-      n, kS1, 1,
+      n, kS1, kWallFields,
       [&](real* A, real* Bacc, PassMaxima&) {
         PairGeometry<D> G;
         I.for_each_fluid([&](uint32_t i) {
@@ -43,7 +43,7 @@ void velocity_gradient_pass(const PassContext<D>& c, const Kernel& kernel, ImplT
           real div = 0, diff = 0, pw = 0, ww = 0;
           Mat<D> L = Mat<D>::Zero();
           const uint32_t* list = I.list_of(i);
-          const uint32_t nfl = I.lists.nf[i], nbl = I.lists.nb[i];
+          const uint32_t nfl = I.pairs.lists.nf[i], nbl = I.pairs.lists.nb[i];
           prepare_pairs(c, kernel, G, xi, rhoi, list, nfl, nbl);
           for (uint32_t q = 0; q < nfl; ++q) {
             const uint32_t j = list[q];
@@ -87,7 +87,7 @@ void velocity_gradient_pass(const PassContext<D>& c, const Kernel& kernel, ImplT
           for (int b = 0; b < D; ++b) L(a, b) = sum(kL + a * D + b, i);
         c.shear_rate[i] = shear_rate_of<D>(L, shear_rate_floor);
       },
-      [&](auto&& bsum, uint32_t b, uint32_t s) { c.boundary_drho[b] = c.brho[b] * bsum(0, s); });
+      [&](auto&& bsum, uint32_t b, uint32_t s) { c.boundary_drho[b] = c.brho[b] * bsum(kDiv, s); });
 }
 
 // Momentum of fluid particle i from its fluid pairs: pressure, artificial viscosity and (kViscous) the Morris
@@ -143,7 +143,7 @@ void momentum_pass(const PassContext<D>& c, const Kernel& kernel, ImplT& I, size
   constexpr int kAcc = kViscous ? 0 : 2;  // first of D acceleration fields (inviscid: after div and diff)
   constexpr int kS2 = kAcc + D;
   I.accumulate(
-      n, kS2, kViscous ? 0 : 1,
+      n, kS2, kViscous ? 0 : kWallFields,
       [&](real* A, real* Bacc, PassMaxima& mx) {
         PairGeometry<D> G;
         I.for_each_fluid([&](uint32_t i) {
@@ -152,7 +152,7 @@ void momentum_pass(const PassContext<D>& c, const Kernel& kernel, ImplT& I, size
           const real friction_i = kViscous ? c.wall_friction[c.mat[i]] : 0.0;
           real visc_max = 0, div = 0, diff = 0;
           const uint32_t* list = I.list_of(i);
-          const uint32_t nfl = I.lists.nf[i], nbl = I.lists.nb[i];
+          const uint32_t nfl = I.pairs.lists.nf[i], nbl = I.pairs.lists.nb[i];
           prepare_pairs(c, kernel, G, xi, c.rho[i], list, nfl, nbl);
           Vec<D> a = momentum_fluid_pairs<kViscous, kS2, kAcc>(c, G, list, nfl, i, vi, div, diff, visc_max, A);
           typename Pairs::Contact w;
@@ -176,7 +176,7 @@ void momentum_pass(const PassContext<D>& c, const Kernel& kernel, ImplT& I, size
         if constexpr (!kViscous) c.drho[i] = density_rate(c, sum, i);
       },
       [&](auto&& bsum, uint32_t b, uint32_t s) {
-        if constexpr (!kViscous) c.boundary_drho[b] = c.brho[b] * bsum(0, s);
+        if constexpr (!kViscous) c.boundary_drho[b] = c.brho[b] * bsum(kDiv, s);
       });
 }
 

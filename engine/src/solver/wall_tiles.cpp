@@ -66,15 +66,14 @@ void compact(std::vector<T>& v, const std::vector<char>& keep) {
 
 template <int D>
 uint64_t Solver<D>::boundary_described() const {
-  return impl_->boundary_fixed + (wall_source_ ? wall_source_->total() : 0);
+  return impl_->tiles.fixed + (wall_source_ ? wall_source_->total() : 0);
 }
 
 template <int D>
 bool Solver<D>::wall_tiles_missing(real reach) const {
-  const auto& I = *impl_;
   const size_t n = fluid_.size();
-  const WallTileGrid& g = I.tiles;
-  const char* live = I.tile_live.data();
+  const WallTileGrid& g = impl_->tiles.grid;
+  const char* live = impl_->tiles.live.data();
   bool missing = false;
 #pragma omp parallel for schedule(static) reduction(|| : missing)
   for (size_t i = 0; i < n; ++i)
@@ -84,27 +83,27 @@ bool Solver<D>::wall_tiles_missing(real reach) const {
 
 template <int D>
 bool Solver<D>::wall_tiles_known_alive(real need) const {
-  const auto& I = *impl_;
+  const auto& tiles = impl_->tiles;
   const size_t n = fluid_.size();
-  if (I.tile_check_reach < 0 || I.tile_check_pos[0].size() != n) return false;
+  if (tiles.check_reach < 0 || tiles.check_pos[0].size() != n) return false;
   real moved2 = 0;
 #pragma omp parallel for schedule(static) reduction(max : moved2)
   for (size_t i = 0; i < n; ++i) {
     real dd = 0;
     for (int d = 0; d < D; ++d) {
-      const real u = fluid_.pos[d][i] - I.tile_check_pos[d][i];
+      const real u = fluid_.pos[d][i] - tiles.check_pos[d][i];
       dd += u * u;
     }
     moved2 = std::max(moved2, dd);
   }
-  return std::sqrt(moved2) + need <= I.tile_check_reach;
+  return std::sqrt(moved2) + need <= tiles.check_reach;
 }
 
 template <int D>
 void Solver<D>::remember_wall_check(real reach) {
-  auto& I = *impl_;
-  for (int d = 0; d < D; ++d) I.tile_check_pos[d] = fluid_.pos[d];
-  I.tile_check_reach = reach;
+  auto& tiles = impl_->tiles;
+  for (int d = 0; d < D; ++d) tiles.check_pos[d] = fluid_.pos[d];
+  tiles.check_reach = reach;
 }
 
 // The step's check, then a rebuild if a tile within reach is not alive. The check is skipped while the flow
@@ -113,10 +112,11 @@ void Solver<D>::remember_wall_check(real reach) {
 // happen at the same steps either way.
 template <int D>
 void Solver<D>::refresh_wall_tiles(bool force) {
-  auto& I = *impl_;
+  auto& tiles = impl_->tiles;
   const size_t n = fluid_.size();
   const real h = config_.smoothing_length;
-  const real need = 2.0 * h + config_.cfl * h * std::max<real>(1.0, 2.0 * stats_.max_speed / config_.speed_of_sound);
+  const real mach = record_.stats.max_speed / config_.speed_of_sound;
+  const real need = 2.0 * h + config_.cfl * h * std::max<real>(1.0, 2.0 * mach);
   if (!force) {
     if (wall_tiles_known_alive(need)) return;
     const real verified = need + 0.5 * kLayAhead * config_.dp;
@@ -124,121 +124,127 @@ void Solver<D>::refresh_wall_tiles(bool force) {
       remember_wall_check(verified);
       return;
     }
-    I.tile_check_reach = -1;
+    tiles.check_reach = -1;
     if (!wall_tiles_missing(need)) return;
   }
-  if (++I.mark_stamp == 0) {
-    std::fill(I.tile_mark.begin(), I.tile_mark.end(), 0u);
-    I.mark_stamp = 1;
+  if (++tiles.mark_stamp == 0) {
+    std::fill(tiles.mark.begin(), tiles.mark.end(), 0u);
+    tiles.mark_stamp = 1;
   }
   std::vector<int64_t> wanted;
   for (size_t i = 0; i < n; ++i)
-    for_tiles_near<D>(I.tiles, fluid_.position(i), need + kLayAhead * config_.dp, [&](int64_t t) {
-      if (I.tile_mark[t] == I.mark_stamp) return;
-      I.tile_mark[t] = I.mark_stamp;
+    for_tiles_near<D>(tiles.grid, fluid_.position(i), need + kLayAhead * config_.dp, [&](int64_t t) {
+      if (tiles.mark[t] == tiles.mark_stamp) return;
+      tiles.mark[t] = tiles.mark_stamp;
       wanted.push_back(t);
     });
   std::sort(wanted.begin(), wanted.end());
 
   // Drop the particles of tiles no longer wanted; those kept keep their state (a DBC wall's density).
   std::vector<char> keep(boundary_.size());
-  for (size_t b = 0; b < keep.size(); ++b) keep[b] = I.boundary_tile[b] < 0 || I.tile_mark[I.boundary_tile[b]] == I.mark_stamp;
+  for (size_t b = 0; b < keep.size(); ++b)
+    keep[b] = tiles.of_wall[b] < 0 || tiles.mark[tiles.of_wall[b]] == tiles.mark_stamp;
   keep_boundary(keep);
-  for (int64_t t : I.live_tiles)
-    if (I.tile_mark[t] != I.mark_stamp) I.tile_live[t] = 0;
+  for (int64_t t : tiles.alive)
+    if (tiles.mark[t] != tiles.mark_stamp) tiles.live[t] = 0;
 
   for (int64_t t : wanted)
-    if (!I.tile_live[t]) lay_tile(t);
-  I.live_tiles = std::move(wanted);
+    if (!tiles.live[t]) lay_tile(t);
+  tiles.alive = std::move(wanted);
   sort_boundary();
   ++boundary_generation_;
   boundary_peak_ = std::max(boundary_peak_, boundary_.size());
   remember_wall_check(need + kLayAhead * config_.dp);
   if (max_particles_ > 0 && static_cast<long>(n + boundary_.size()) > max_particles_) {
     std::ostringstream s;
-    s << fmt_time(time_) << ": " << boundary_.size() << " wall particles alive near " << n
+    s << fmt_time(record_.time) << ": " << boundary_.size() << " wall particles alive near " << n
       << " flow particles, over limits.max_particles = " << max_particles_;
     throw SimulationError(s.str());
   }
 }
 
+// Every array that holds one entry per wall particle, in the boundary's order: what dropping or sorting wall
+// particles must carry along.
+template <int D>
+template <class F>
+void Solver<D>::for_each_wall_array(F&& f) {
+  auto& tiles = impl_->tiles;
+  for (int d = 0; d < D; ++d) f(boundary_.pos[d]), f(boundary_.vel[d]), f(wall_fields_.normal[d]);
+  f(boundary_.rho), f(boundary_.mass), f(boundary_.material), f(boundary_.tag), f(boundary_.id);
+  f(tiles.of_wall), f(tiles.rank), f(saved_.boundary_rho), f(wall_fields_.pressure), f(wall_fields_.drho);
+}
+
 template <int D>
 void Solver<D>::keep_boundary(const std::vector<char>& keep) {
-  auto& I = *impl_;
-  for (int d = 0; d < D; ++d)
-    compact(boundary_.pos[d], keep), compact(boundary_.vel[d], keep), compact(boundary_normal_[d], keep);
-  compact(boundary_.rho, keep), compact(boundary_.mass, keep), compact(boundary_.material, keep);
-  compact(boundary_.tag, keep), compact(boundary_.id, keep), compact(I.boundary_tile, keep);
-  compact(I.boundary_rank, keep), compact(boundary_rho_saved_, keep), compact(boundary_pressure_, keep);
+  for_each_wall_array([&](auto& v) { compact(v, keep); });
 }
 
 template <int D>
 void Solver<D>::restore_wall_tiles(const std::vector<int64_t>& live) {
-  auto& I = *impl_;
+  auto& tiles = impl_->tiles;
   std::vector<char> fixed(boundary_.size());
-  for (size_t b = 0; b < fixed.size(); ++b) fixed[b] = I.boundary_tile[b] < 0;
+  for (size_t b = 0; b < fixed.size(); ++b) fixed[b] = tiles.of_wall[b] < 0;
   keep_boundary(fixed);
-  std::fill(I.tile_live.begin(), I.tile_live.end(), 0);
+  std::fill(tiles.live.begin(), tiles.live.end(), 0);
   for (int64_t t : live) {
-    if (t < 0 || t >= static_cast<int64_t>(I.tile_live.size())) throw std::runtime_error("checkpoint: a wall tile out of range");
+    if (t < 0 || t >= static_cast<int64_t>(tiles.live.size())) throw std::runtime_error("checkpoint: a wall tile out of range");
     lay_tile(t);
   }
-  I.live_tiles = live;
-  I.tile_check_reach = -1;  // the flow is the checkpoint's: checked afresh at the next step
+  tiles.alive = live;
+  tiles.check_reach = -1;  // the flow is the checkpoint's: checked afresh at the next step
   sort_boundary();
 }
 
 template <int D>
 void Solver<D>::lay_tile(int64_t t) {
-  auto& I = *impl_;
-  I.tile_live[t] = 1;
+  auto& tiles = impl_->tiles;
+  tiles.live[t] = 1;
   std::vector<Vec<D>> pos, normals;
   std::vector<uint32_t> tags;
   wall_source_->lay(t, pos, normals, tags);
   const real bmass = config_.boundary_density * std::pow(config_.dp, D);
-  const uint64_t first = I.boundary_fixed + wall_source_->first_index(t);
+  const uint64_t first = tiles.fixed + wall_source_->first_index(t);
   for (size_t k = 0; k < pos.size(); ++k) {
     boundary_.add(pos[k], config_.boundary_density, bmass, 0, tags[k]);
-    for (int d = 0; d < D; ++d) boundary_normal_[d].push_back(normals[k][d]);
+    for (int d = 0; d < D; ++d) wall_fields_.normal[d].push_back(normals[k][d]);
     boundary_.id.back() = static_cast<uint32_t>(first + k);
-    I.boundary_tile.push_back(t);
-    I.boundary_rank.push_back(first + k);
-    boundary_rho_saved_.push_back(config_.boundary_density);
-    boundary_pressure_.push_back(0.0);
+    tiles.of_wall.push_back(t);
+    tiles.rank.push_back(first + k);
+    saved_.boundary_rho.push_back(config_.boundary_density);
+    wall_fields_.pressure.push_back(0.0);
+    wall_fields_.drho.push_back(0.0);
   }
 }
 
 // Sorts the boundary by cell (ties by rank) and indexes its cells.
 template <int D>
 void Solver<D>::sort_boundary() {
-  auto& I = *impl_;
+  auto& cells = impl_->cells;
+  auto& tiles = impl_->tiles;
   const size_t nb = boundary_.size();
   std::vector<std::tuple<uint64_t, uint64_t, uint32_t>> order(nb);
 #pragma omp parallel for schedule(static)
   for (size_t b = 0; b < nb; ++b)
-    order[b] = {Impl::pack(I.coords(boundary_.position(b))), I.boundary_rank[b], static_cast<uint32_t>(b)};
+    order[b] = {CellIndex<D>::pack(cells.coords(boundary_.position(b))), tiles.rank[b], static_cast<uint32_t>(b)};
   std::sort(order.begin(), order.end());
   auto permute = [&](auto& v) {
     auto out = v;
     for (size_t k = 0; k < nb; ++k) out[k] = v[std::get<2>(order[k])];
     v.swap(out);
   };
-  for (int d = 0; d < D; ++d) permute(boundary_.pos[d]), permute(boundary_.vel[d]), permute(boundary_normal_[d]);
-  permute(boundary_.rho), permute(boundary_.mass), permute(boundary_.material), permute(boundary_.tag);
-  permute(boundary_.id), permute(I.boundary_tile), permute(I.boundary_rank), permute(boundary_rho_saved_);
-  permute(boundary_pressure_);
-  I.bcell_key.clear();
-  I.bcell_begin.clear();
+  for_each_wall_array(permute);
+  cells.bcell_key.clear();
+  cells.bcell_begin.clear();
   for (size_t k = 0; k < nb; ++k) {
     const uint64_t key = std::get<0>(order[k]);
-    if (I.bcell_key.empty() || I.bcell_key.back() != key) {
-      I.bcell_key.push_back(key);
-      I.bcell_begin.push_back(static_cast<uint32_t>(k));
+    if (cells.bcell_key.empty() || cells.bcell_key.back() != key) {
+      cells.bcell_key.push_back(key);
+      cells.bcell_begin.push_back(static_cast<uint32_t>(k));
     }
   }
-  I.bcell_begin.push_back(static_cast<uint32_t>(nb));
-  I.bcell_stamp.assign(I.bcell_key.size(), 0);
-  boundary_drho_.assign(nb, 0.0);
+  cells.bcell_begin.push_back(static_cast<uint32_t>(nb));
+  cells.bcell_stamp.assign(cells.bcell_key.size(), 0);
+  wall_fields_.drho.assign(nb, 0.0);
 }
 
 template uint64_t Solver<2>::boundary_described() const;

@@ -15,12 +15,7 @@ struct dbc {
   template <int D, class Kernel, class ImplT>
   static void update_pressure(const PassContext<D>&, const Kernel&, ImplT& I, size_t, const TaitEOS& eos,
                               real* pressure, real* density) {
-    const size_t nact = I.active_bcells.size();
-#pragma omp parallel for schedule(static)
-    for (size_t a = 0; a < nact; ++a) {
-      const uint32_t cb = I.active_bcells[a];
-      for (uint32_t b = I.bcell_begin[cb]; b < I.bcell_begin[cb + 1]; ++b) pressure[b] = eos.pressure(density[b]);
-    }
+    I.cells.for_each_active_wall([&](uint32_t b) { pressure[b] = eos.pressure(density[b]); });
   }
 };
 

@@ -23,12 +23,14 @@ struct extrapolated {
   template <int D, class Kernel, class ImplT>
   static void update_pressure(const PassContext<D>& c, const Kernel& kernel, ImplT& I, size_t n, const TaitEOS& eos,
                               real* pressure, real* density) {
+    // Each active wall particle's accumulator record: the Shepard sum of W and of the pressure it extrapolates.
+    constexpr int kW = 0, kPW = 1, kFields = 2;
     I.accumulate(
-        n, 0, 2,
+        n, 0, kFields,
         [&](real*, real* Bacc, auto&) {
           I.for_each_fluid([&](uint32_t i) {
-            const uint32_t* L = I.list_of(i) + I.lists.nf[i];
-            for (uint32_t q = 0; q < I.lists.nb[i]; ++q) {
+            const uint32_t* L = I.list_of(i) + I.pairs.lists.nf[i];
+            for (uint32_t q = 0; q < I.pairs.lists.nb[i]; ++q) {
               const uint32_t b = L[q];
               real r2 = 0, gdx = 0, gn = 0, ndx = 0, nn = 0;
               for (int d = 0; d < D; ++d) {
@@ -42,14 +44,15 @@ struct extrapolated {
               }
               if (nn > 0) gdx = gn * ndx;
               const real w = kernel.W(std::sqrt(r2));
-              Bacc[2 * c.bslot[b]] += w;
-              Bacc[2 * c.bslot[b] + 1] += (c.press[i] + c.rho[i] * gdx) * w;
+              real* rec = Bacc + kFields * c.bslot[b];
+              rec[kW] += w;
+              rec[kPW] += (c.press[i] + c.rho[i] * gdx) * w;
             }
           });
         },
         [](auto&&, size_t, auto&) {},
         [&](auto&& bsum, uint32_t b, uint32_t s) {
-          const real sw = bsum(0, s), spw = bsum(1, s);
+          const real sw = bsum(kW, s), spw = bsum(kPW, s);
           const real pb = sw > 0 ? std::max(spw / sw, 0.0) : 0.0;
           pressure[b] = pb;
           density[b] = eos.density(pb);

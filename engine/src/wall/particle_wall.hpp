@@ -12,6 +12,8 @@ namespace wall {
 
 using solver_detail::PairGeometry;
 using solver_detail::PassContext;
+using solver_detail::kDiv;
+using solver_detail::kWallFields;
 
 // DBC continuity of wall particle b and its share of i's divergence:
 // drho_b/dt = rho_b sum V_f (0 - v_f) . grad_b W = rho_b sum V_f F v_f . dx.
@@ -19,7 +21,7 @@ template <int D>
 inline void wall_continuity(const PassContext<D>& c, uint32_t b, real Vi, real F, real vdotdx, real& div,
                             real* Bacc) {
   div += c.bvol[b] * F * vdotdx;
-  Bacc[c.bslot[b]] += Vi * F * vdotdx;
+  Bacc[kWallFields * c.bslot[b] + kDiv] += Vi * F * vdotdx;
 }
 
 // What a particle's wall pairs sum to in the momentum pass.

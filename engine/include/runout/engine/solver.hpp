@@ -237,20 +237,20 @@ class Solver {
   // One time step; throws SimulationError on NaN/Inf, dt under the floor, or a leak.
   const StepStats& step();
 
-  real time() const { return time_; }
-  long steps() const { return steps_; }
+  real time() const { return record_.time; }
+  long steps() const { return record_.steps; }
   const SolverConfig& config() const { return config_; }
   real max_viscosity() const { return max_viscosity_; }
   const std::vector<MaterialParams>& materials() const { return materials_; }
   const ParticleArrays<D>& fluid() const { return fluid_; }
   const ParticleArrays<D>& boundary() const { return boundary_; }
-  const std::vector<real>& fluid_pressure() const { return pressure_; }
-  const std::vector<real>& fluid_effective_viscosity() const { return mu_eff_; }
-  const std::vector<real>& fluid_shear_rate() const { return shear_rate_; }
-  const std::vector<real>& boundary_pressure() const { return boundary_pressure_; }
+  const std::vector<real>& fluid_pressure() const { return fluid_fields_.pressure; }
+  const std::vector<real>& fluid_effective_viscosity() const { return fluid_fields_.mu_eff; }
+  const std::vector<real>& fluid_shear_rate() const { return fluid_fields_.shear_rate; }
+  const std::vector<real>& boundary_pressure() const { return wall_fields_.pressure; }
   // The wall's unit normal at each boundary particle (its sign is arbitrary; zero where none could be found).
-  const std::array<std::vector<real>, D>& boundary_normal() const { return boundary_normal_; }
-  const StepStats& last_step() const { return stats_; }
+  const std::array<std::vector<real>, D>& boundary_normal() const { return wall_fields_.normal; }
+  const StepStats& last_step() const { return record_.stats; }
   // Wall particles: the most alive at once, all the scene describes (the fixed ones and every tile of the wall
   // source), and a counter that changes whenever boundary() is rebuilt (its indices are then invalid).
   size_t boundary_peak() const { return boundary_peak_; }
@@ -269,9 +269,9 @@ class Solver {
 
   MassBalance mass_balance() const;
   EnergySummary energy() const;
-  real max_mach() const { return max_mach_; }
-  real min_dt_seen() const { return min_dt_seen_; }
-  const ViscousSolveSummary& viscous_solves() const { return viscous_summary_; }
+  real max_mach() const { return record_.max_mach; }
+  real min_dt_seen() const { return record_.min_dt_seen; }
+  const ViscousSolveSummary& viscous_solves() const { return record_.viscous; }
   // How often the cells were scanned for pairs: every evaluation without a neighbour skin, after each sort
   // with one.
   long neighbour_list_builds() const;
@@ -288,52 +288,73 @@ class Solver {
 
   // Evaluates accelerations and density rates at the current state without advancing (tests, monitors).
   void evaluate_rates();
-  const std::array<std::vector<real>, D>& fluid_acceleration() const { return acc_; }
-  const std::vector<real>& fluid_density_rate() const { return drho_; }
+  const std::array<std::vector<real>, D>& fluid_acceleration() const { return fluid_fields_.acc; }
+  const std::vector<real>& fluid_density_rate() const { return fluid_fields_.drho; }
   // DBC continuity rate of boundary particles (0 for those with no flow near them).
-  const std::vector<real>& boundary_density_rate() const { return boundary_drho_; }
+  const std::vector<real>& boundary_density_rate() const { return wall_fields_.drho; }
 
  private:
-  struct Impl;
+  // Per fluid particle, what an evaluation works out (resized with the fluid at each sort).
+  struct FluidFields {
+    std::array<std::vector<real>, D> acc;
+    std::vector<real> drho, pressure, mu_eff, shear_rate;
+    std::vector<real> yield_pressure;  // kernel-averaged pressure the rheology's yield stress sees
+    std::vector<real> mu_wall;         // viscosity of the wall side of fluid-wall pairs (friction rheologies: at p = 0)
+    std::vector<real> zero_pressure;
+    std::array<std::vector<real>, D> contact_normal;  // wall normal of particles in wall contact, else 0
+    void resize(size_t n);
+  };
+  // Per wall particle, in the boundary's order: the wall's unit normal, its pressure and (DBC) density rate.
+  struct WallFields {
+    std::array<std::vector<real>, D> normal;
+    std::vector<real> pressure, drho;
+  };
+  // What a step starts from: the predictor-corrector's start of step (symplectic) or the previous step (Verlet).
+  struct StepStart {
+    std::array<std::vector<real>, D> pos, vel;
+    std::vector<real> rho, boundary_rho;
+  };
+  // The run's clock and what it has seen.
+  struct RunRecord {
+    real time = 0;
+    long steps = 0;
+    real max_mach = 0;
+    real min_dt_seen = 1e300;
+    StepStats stats;
+    ViscousSolveSummary viscous;
+  };
+  // Mass and energy balances.
+  struct Balances {
+    MassBalance mass;
+    real potential_initial = 0;
+    real potential_outflow = 0;  // PE(0) contribution of removed particles at their removal point
+    real kinetic_inflow = 0;
+  };
+
+  struct Impl;  // cells, pair lists, the passes' buffers, wall tiles (engine/src/solver/impl.hpp)
   std::unique_ptr<Impl> impl_;
+  // The setup, fixed for the run.
   SolverConfig config_;
   std::vector<MaterialParams> materials_;
   std::vector<std::unique_ptr<Rheology>> rheologies_;
-  ParticleArrays<D> fluid_, boundary_;
   std::vector<LeakRegion<D>> leak_regions_;
   std::vector<InletSpec<D>> inlets_;
   std::shared_ptr<const WallSource<D>> wall_source_;
   long max_particles_ = 0;
+  real max_viscosity_ = 0;  // the mu_eff cap in force
+  // The particles and what goes with them.
+  ParticleArrays<D> fluid_, boundary_;
+  FluidFields fluid_fields_;
+  WallFields wall_fields_;
+  StepStart saved_;
+  uint32_t next_id_ = 0;
+  std::vector<char> outflow_marked_;  // per fluid particle, set by remove_as_outflow; empty when none is
   size_t boundary_peak_ = 0;
   uint64_t boundary_generation_ = 0;
-  std::vector<char> outflow_marked_;  // per fluid particle, set by remove_as_outflow; empty when none is
-  uint32_t next_id_ = 0;
+  RunRecord record_;
+  Balances balance_;
 
-  // fluid per-particle work arrays
-  std::array<std::vector<real>, D> acc_;
-  std::vector<real> drho_, pressure_, mu_eff_, shear_rate_;
-  std::vector<real> yield_pressure_;  // kernel-averaged pressure the rheology's yield stress sees
-  std::vector<real> mu_wall_;         // viscosity of the wall side of fluid-wall pairs (friction rheologies: at p = 0)
-  std::vector<real> zero_pressure_;
-  std::array<std::vector<real>, D> contact_normal_;  // wall normal of particles in wall contact, else 0
-  std::array<std::vector<real>, D> pos_saved_, vel_saved_;
-  std::vector<real> rho_saved_;
-  // boundary work arrays
-  std::vector<real> boundary_drho_, boundary_pressure_, boundary_rho_saved_;
-  std::array<std::vector<real>, D> boundary_normal_;
-
-  real time_ = 0;
-  long steps_ = 0;
-  real max_viscosity_ = 0;
-  real max_mach_ = 0;
-  real min_dt_seen_ = 1e300;
-  StepStats stats_;
-  ViscousSolveSummary viscous_summary_;
-  MassBalance mass_;
-  real potential_initial_ = 0;
-  real potential_outflow_ = 0;  // PE(0) contribution of removed particles at their removal point
-  real kinetic_inflow_ = 0;
-
+  void set_up_cells();  // the cell grid, once (solver.cpp)
   void sort_and_build_cells();
   bool removed_at_sort(const Vec<D>& p, uint32_t tag) const;
   bool leaves_sorted_cells(size_t i) const;
@@ -353,6 +374,8 @@ class Solver {
   bool wall_tiles_known_alive(real need) const;  // by the last check, no tile within need can be missing
   void remember_wall_check(real reach);
   void lay_tile(int64_t tile);  // appends its particles to the boundary (unsorted)
+  template <class F>
+  void for_each_wall_array(F&& f);  // f(v) for every per-wall-particle array
   void keep_boundary(const std::vector<char>& keep);  // drops the boundary particles whose keep[b] is 0
   void restore_wall_tiles(const std::vector<int64_t>& live);  // exactly these tiles alive (ascending), sorted
   void sort_boundary();
