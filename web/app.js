@@ -401,7 +401,9 @@ async function submit(ev) {
       status.textContent = `job #${job.id} ${job.scene_name} queued`;
     } else if (mode() === 'file') {
       const sweep = await post('/sweeps', sweepFileBody());
-      status.textContent = `sweep #${sweep.id} ${sweep.name}: ${sweep.jobs.length} jobs queued`;
+      status.textContent = sweep.study
+        ? `study #${sweep.id} ${sweep.name}: ${sweep.jobs.length} screening jobs queued; then up to ${sweep.study.detailed.candidates} layouts in 3D`
+        : `sweep #${sweep.id} ${sweep.name}: ${sweep.jobs.length} jobs queued`;
     } else {
       const sweep = await post('/sweeps', sweepBody());
       status.textContent = `sweep #${sweep.id} ${sweep.name}: ${sweep.jobs.length} jobs queued`;
@@ -439,7 +441,96 @@ async function pollJobs() {
     $('err-jobs').textContent = `jobs: ${e.message}`;
   }
   loadHealth();
+  active = (await pollSweeps()) || active;
   pollTimer = setTimeout(pollJobs, active ? 1000 : 4000);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Sweeps and studies: the newest sweeps with their progress; a study's two stages (GET /sweeps/{id} `study`)
+
+const SWEEPS = 10;
+const studies = new Map(); // sweep id -> the latest GET /sweeps/{id} of a study (read again while it runs)
+
+async function pollSweeps() {
+  let active = false;
+  try {
+    const r = await get(`/sweeps?limit=${SWEEPS}`);
+    for (const s of r.sweeps) {
+      if (s.status === 'running') active = true;
+      const seen = studies.get(s.id);
+      if (s.study && (s.status === 'running' || seen?.status !== s.status)) studies.set(s.id, await get(`/sweeps/${s.id}`));
+    }
+    renderSweeps(r.sweeps);
+    $('err-sweeps').textContent = '';
+  } catch (e) {
+    $('err-sweeps').textContent = `sweeps: ${e.message}`;
+  }
+  return active;
+}
+
+function progressBar(fraction, status) {
+  const bar = Object.assign(document.createElement('div'), { className: 'bar' });
+  const fill = Object.assign(document.createElement('div'), { className: `fill status-${status}` });
+  fill.style.width = `${(100 * fraction).toFixed(1)}%`;
+  bar.append(fill);
+  return bar;
+}
+
+const stageStatus = (st) => (st.jobs_by_status.queued + st.jobs_by_status.running > 0 ? 'running' : 'done');
+
+function stageRow(label, bar) {
+  const row = Object.assign(document.createElement('div'), { className: 'stage' });
+  row.append(Object.assign(document.createElement('span'), { className: 'small', textContent: label }), bar);
+  return row;
+}
+
+function renderStudy(li, d) {
+  const st = d.study;
+  const s1 = st.screening;
+  const s2 = st.detailed;
+  const count = (x) => `${x.jobs_by_status.done}/${x.jobs_total} done`;
+  li.append(stageRow(`1 · screening (${s1.fidelity}): ${count(s1)}`, progressBar(s1.progress.fraction, stageStatus(s1))));
+  const o = st.outcome;
+  const second = o
+    ? `2 · 3D (${s2.fidelity}): ${count(s2)}, ${s2.jobs_total} of ${s2.candidates} layouts`
+    : `2 · 3D (${s2.fidelity}): waits for the screening stage (${s2.candidates} layouts planned)`;
+  li.append(stageRow(second, progressBar(o ? s2.progress.fraction : 0, o ? stageStatus(s2) : 'queued')));
+  if (!o) return;
+  const chosen = o.layouts.filter((l) => l.chosen).map((l) => l.layout);
+  const dropped = o.layouts.filter((l) => !l.chosen);
+  const leader = o.leader ? `leader ${o.leader}` : 'no layout has a screening value to rank by, so every one is kept';
+  const lines = [
+    o.members ? `screened over ${o.members} members; ${leader}; to 3D: ${chosen.join(', ') || 'none'}` : 'no screening member completed: nothing goes on to 3D',
+  ];
+  if (o.note) lines.push(o.note);
+  if (dropped.length) lines.push(`dropped: ${dropped.map((l) => `${l.layout} (${l.why.replace(/^dropped: /, '')})`).join('; ')}`);
+  if (st.stage === 'done' && o.ranking.length) lines.push(`3D ranking, lowest ${o.ranking_metric || 'value'} first: ${o.ranking.join(', ')}`);
+  for (const t of lines) li.append(Object.assign(document.createElement('div'), { className: 'small', textContent: t }));
+}
+
+function renderSweeps(sweeps) {
+  $('sweeps-card').hidden = sweeps.length === 0;
+  const list = $('sweeps-list');
+  list.replaceChildren();
+  for (const s of sweeps) {
+    const li = document.createElement('li');
+    li.dataset.sweep = s.id;
+    const head = Object.assign(document.createElement('div'), { className: 'row' });
+    head.append(
+      Object.assign(document.createElement('strong'), { textContent: `#${s.id} ${s.name}` }),
+      Object.assign(document.createElement('span'), { className: 'muted small', textContent: `${s.study ? 'study' : 'sweep'} · ${s.fidelity} · ${s.jobs_total} jobs` }),
+      Object.assign(document.createElement('span'), { className: `badge status-${s.status}`, textContent: s.status }),
+    );
+    if (s.jobs_by_status.done > 0) head.append(Object.assign(document.createElement('a'), { href: `${API}/sweeps/${s.id}/report.html`, textContent: 'report', target: '_blank', rel: 'noopener' }));
+    li.append(head);
+    const d = studies.get(s.id);
+    if (s.study && d && d.study) renderStudy(li, d);
+    else {
+      const finished = s.jobs_by_status.done + s.jobs_by_status.failed + s.jobs_by_status.cancelled;
+      li.append(stageRow(`${finished}/${s.jobs_total} finished`, progressBar(s.jobs_total ? finished / s.jobs_total : 1, s.status === 'running' ? 'running' : s.status)));
+    }
+    list.append(li);
+  }
 }
 
 const rows = new Map(); // job id -> <tr>

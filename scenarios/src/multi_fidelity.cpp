@@ -86,38 +86,54 @@ Sweep median_sweep(const Sweep& ensemble_sweep, const std::vector<std::string>& 
   return out;
 }
 
+MultiFidelityResult screening_outcome(const Sweep& sweep, const EnsembleSummary& summary) {
+  MultiFidelityResult r;
+  r.screening = summary;
+  r.ranking_metric = summary.ranking_metric;
+  r.selection = select_layouts(summary, sweep.variants.front().layout);
+  r.detailed_sweep = median_sweep(sweep, r.selection.chosen);
+  for (const auto& v : r.detailed_sweep.variants) {
+    const auto qs = summary.quantiles.find(v.name);
+    r.screening_p50[v.name] = std::nullopt;
+    if (qs != summary.quantiles.end() && qs->second.count(r.ranking_metric) && qs->second.at(r.ranking_metric).count)
+      r.screening_p50[v.name] = qs->second.at(r.ranking_metric).p50;
+  }
+  return r;
+}
+
+void set_detailed_values(MultiFidelityResult& r, const std::map<std::string, std::optional<double>>& values) {
+  r.detailed_value.clear();
+  for (const auto& v : r.detailed_sweep.variants)
+    r.detailed_value[v.name] = values.count(v.name) ? values.at(v.name) : std::nullopt;
+  r.detailed_ranking = ranked(r.detailed_value);
+}
+
 MultiFidelityResult run_multi_fidelity_study(RunStore& store, const Sweep& sweep, const MultiFidelityOptions& options) {
   if (!sweep.ensemble) throw SceneError("ensemble", "a multi-fidelity study needs a sweep with an ensemble");
-  MultiFidelityResult r;
   SweepOptions first = options.run;
   first.fidelity_override = true;
   first.fidelity = options.screening;
   (void)run_sweep(store, sweep, first);
-  r.stopped = options.run.stop && options.run.stop->load();
+  const bool stopped = options.run.stop && options.run.stop->load();
   const auto summary = summarise_ensemble(store, sweep.name, fidelity_name(options.screening));
-  if (!summary || r.stopped) return r;
-  r.screening = *summary;
-  r.ranking_metric = summary->ranking_metric;
-  r.selection = select_layouts(*summary, sweep.variants.front().layout);
-  r.detailed_sweep = median_sweep(sweep, r.selection.chosen);
+  if (!summary || stopped) {
+    MultiFidelityResult r;
+    r.stopped = stopped;
+    return r;
+  }
+  MultiFidelityResult r = screening_outcome(sweep, *summary);
   SweepOptions second = options.run;
   second.fidelity_override = true;
   second.fidelity = options.detailed;
   r.detailed = run_sweep(store, r.detailed_sweep, second);
   r.stopped = options.run.stop && options.run.stop->load();
+  std::map<std::string, std::optional<double>> values;
   for (size_t k = 0; k < r.detailed_sweep.variants.size(); ++k) {
-    const std::string& l = r.detailed_sweep.variants[k].name;
-    const auto qs = summary->quantiles.find(l);
-    r.screening_p50[l] = std::nullopt;
-    if (qs != summary->quantiles.end() && qs->second.count(r.ranking_metric) && qs->second.at(r.ranking_metric).count)
-      r.screening_p50[l] = qs->second.at(r.ranking_metric).p50;
-    r.detailed_value[l] = std::nullopt;
-    if (r.detailed.runs[k].status == "completed") {
-      const auto m = store.metrics(r.detailed.runs[k].run_id);
-      if (const auto it = m.find(r.ranking_metric); it != m.end()) r.detailed_value[l] = it->second;
-    }
+    if (r.detailed.runs[k].status != "completed") continue;
+    const auto m = store.metrics(r.detailed.runs[k].run_id);
+    if (const auto it = m.find(r.ranking_metric); it != m.end()) values[r.detailed_sweep.variants[k].name] = it->second;
   }
-  r.detailed_ranking = ranked(r.detailed_value);
+  set_detailed_values(r, values);
   return r;
 }
 

@@ -25,7 +25,7 @@ std::string job_columns(bool full) {
   return std::string("id, status, scene_name, ") + (full ? "scene_json" : "''") +
          ", scene_id, fidelity, dp, sweep_id, sweep, variant, idempotency_key, particles, sim_time, duration, "
          "steps, wall_seconds, eta_seconds, attempts, cancel_requested, run_id, reused, out_dir, error, created_at, "
-         "updated_at, started_at, finished_at";
+         "updated_at, started_at, finished_at, stage";
 }
 
 Job read_job(const Stmt& s) {
@@ -57,12 +57,14 @@ Job read_job(const Stmt& s) {
   j.updated_at = s.text(24);
   j.started_at = s.opt_text(25);
   j.finished_at = s.opt_text(26);
+  j.stage = static_cast<int>(s.int64(27));
   return j;
 }
 
-const char* kSweepColumns = "id, name, scene_id, fidelity, idempotency_key, created_at";
+const char* kSweepColumns =
+    "id, name, scene_id, fidelity, idempotency_key, created_at, study IS NOT NULL, study_outcome IS NOT NULL";
 SweepRow read_sweep(const Stmt& s) {
-  return {s.int64(0), s.text(1), s.opt_int(2), s.text(3), s.opt_text(4), s.text(5)};
+  return {s.int64(0), s.text(1), s.opt_int(2), s.text(3), s.opt_text(4), s.text(5), s.int64(6) != 0, s.int64(7) != 0};
 }
 
 std::optional<Job> get_job(const Conn& c, int64_t id, bool full = true) {
@@ -74,12 +76,13 @@ std::optional<Job> get_job(const Conn& c, int64_t id, bool full = true) {
 
 int64_t insert_job(Conn& c, const JobSpec& spec, std::optional<int64_t> sweep_id, const std::optional<std::string>& key) {
   Stmt ins(c, std::string("INSERT INTO jobs(status, scene_name, scene_json, scene_id, fidelity, dp, sweep_id, sweep, "
-                          "variant, idempotency_key, particles, duration, cpu_seconds, submitted_by, created_at, "
-                          "updated_at) VALUES ('queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ") +
+                          "variant, idempotency_key, particles, duration, cpu_seconds, submitted_by, stage, created_at, "
+                          "updated_at) VALUES ('queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ") +
                   kNow + ", " + kNow + ")");
   ins.bind(1, spec.scene_name).bind(2, spec.scene_json).bind(3, spec.scene_id).bind(4, spec.fidelity).bind(5, spec.dp);
   ins.bind(6, sweep_id).bind(7, spec.sweep).bind(8, spec.variant).bind(9, key).bind(10, spec.particles);
   ins.bind(11, spec.duration).bind(12, spec.cpu_seconds).bind(13, spec.submitted_by);
+  ins.bind(14, static_cast<int64_t>(spec.stage));
   ins.step();
   return sqlite3_last_insert_rowid(c.db);
 }
@@ -154,6 +157,11 @@ CREATE INDEX IF NOT EXISTS jobs_run ON jobs(run_id);
     // 2: the work budget: each job's predicted CPU-seconds and its submitter (a token's label).
     "ALTER TABLE jobs ADD COLUMN cpu_seconds REAL NOT NULL DEFAULT 0;"
     "ALTER TABLE jobs ADD COLUMN submitted_by TEXT NOT NULL DEFAULT '';",
+    // 3: multi-fidelity studies (docs/service.md, "Studies"): a study sweep's plan and, once its screening stage
+    // is decided, the outcome; each job's stage.
+    "ALTER TABLE service_sweeps ADD COLUMN study TEXT;"
+    "ALTER TABLE service_sweeps ADD COLUMN study_outcome TEXT;"
+    "ALTER TABLE jobs ADD COLUMN stage INTEGER NOT NULL DEFAULT 0;",
 };
 
 int service_version(Conn& c) {
@@ -238,7 +246,8 @@ std::pair<SweepRow, bool> JobQueue::submit_sweep(const std::string& name, std::o
                                                  const std::string& fidelity, const std::vector<JobSpec>& jobs,
                                                  const std::optional<std::string>& key,
                                                  const std::optional<std::string>& launched_runs_dir,
-                                                 const BudgetCheck& budget) {
+                                                 const BudgetCheck& budget,
+                                                 const std::optional<std::string>& study_plan) {
   Conn& c = impl_->writer;
   std::lock_guard lock(c.mutex);
   Transaction tx(c);
@@ -252,9 +261,9 @@ std::pair<SweepRow, bool> JobQueue::submit_sweep(const std::string& name, std::o
     }
   }
   if (budget) budget(read_backlog(c, jobs.empty() ? std::string() : jobs.front().submitted_by));
-  Stmt ins(c, std::string("INSERT INTO service_sweeps(name, scene_id, fidelity, idempotency_key, created_at) "
-                          "VALUES (?, ?, ?, ?, ") + kNow + ")");
-  ins.bind(1, name).bind(2, scene_id).bind(3, fidelity).bind(4, key);
+  Stmt ins(c, std::string("INSERT INTO service_sweeps(name, scene_id, fidelity, idempotency_key, study, created_at) "
+                          "VALUES (?, ?, ?, ?, ?, ") + kNow + ")");
+  ins.bind(1, name).bind(2, scene_id).bind(3, fidelity).bind(4, key).bind(5, study_plan);
   ins.step();
   const int64_t sweep_id = sqlite3_last_insert_rowid(c.db);
   for (const auto& j : jobs) {
@@ -273,6 +282,40 @@ std::pair<SweepRow, bool> JobQueue::submit_sweep(const std::string& name, std::o
   SweepRow row = read_sweep(s);
   tx.commit();
   return {row, true};
+}
+
+std::vector<int64_t> JobQueue::studies_to_decide() const {
+  std::lock_guard lock(impl_->reader.mutex);
+  Stmt s(impl_->reader,
+         "SELECT id FROM service_sweeps AS w WHERE study IS NOT NULL AND study_outcome IS NULL AND NOT EXISTS "
+         "(SELECT 1 FROM jobs WHERE sweep_id = w.id AND stage = 1 AND status IN ('queued', 'running')) ORDER BY id");
+  std::vector<int64_t> out;
+  while (s.step()) out.push_back(s.int64(0));
+  return out;
+}
+
+std::optional<StudyRecord> JobQueue::study(int64_t sweep_id) const {
+  std::lock_guard lock(impl_->reader.mutex);
+  Stmt s(impl_->reader, "SELECT study, study_outcome FROM service_sweeps WHERE id = ? AND study IS NOT NULL");
+  s.bind(1, sweep_id);
+  if (!s.step()) return std::nullopt;
+  return StudyRecord{s.text(0), s.opt_text(1)};
+}
+
+bool JobQueue::decide_study(int64_t sweep_id, const std::string& outcome, const std::vector<JobSpec>& jobs) {
+  Conn& c = impl_->writer;
+  std::lock_guard lock(c.mutex);
+  Transaction tx(c);
+  Stmt set(c, "UPDATE service_sweeps SET study_outcome = ? WHERE id = ? AND study IS NOT NULL AND study_outcome IS NULL");
+  set.bind(1, outcome).bind(2, sweep_id);
+  set.step();
+  if (sqlite3_changes(c.db) == 0) {
+    tx.commit();
+    return false;
+  }
+  for (const auto& j : jobs) insert_job(c, j, sweep_id, std::nullopt);
+  tx.commit();
+  return true;
 }
 
 std::optional<Job> JobQueue::get(int64_t id) const {

@@ -27,6 +27,7 @@ struct JobSpec {
   std::string fidelity = "standard"; // draft | standard | fine | custom
   std::optional<double> dp;          // custom dp
   std::string sweep, variant;        // sweep name (runs.sweep in the run store) and variant name
+  int stage = 0;                     // a study sweep's stage (1 screening, 2 detailed); 0: not a study's job
   int64_t particles = 0;             // particle count of the resolved scene (fluid + boundary)
   double duration = 0;               // simulated seconds
   // From the built scene, for POST /estimate (the cost model, docs/tradeoff.md); not stored with the job.
@@ -59,6 +60,7 @@ struct Job {
   std::optional<double> dp;
   std::optional<int64_t> sweep_id;
   std::string sweep, variant;
+  int stage = 0;  // JobSpec::stage
   std::optional<std::string> idempotency_key;
   int64_t particles = 0;
   double sim_time = 0, duration = 0;
@@ -86,6 +88,15 @@ struct SweepRow {
   std::string fidelity;
   std::optional<std::string> idempotency_key;
   std::string created_at;
+  bool study = false;           // a multi-fidelity study (docs/service.md, "Studies")
+  bool study_released = false;  // its screening stage has been decided and its detailed jobs queued
+};
+
+// A study sweep's stored record: the plan written at submission (the detailed stage's candidate jobs and what
+// deciding needs, JSON made by the server) and, once the screening stage has been decided, its outcome (JSON).
+struct StudyRecord {
+  std::string plan;
+  std::optional<std::string> outcome;
 };
 
 class JobQueue {
@@ -108,7 +119,14 @@ class JobQueue {
                                          const std::string& fidelity, const std::vector<JobSpec>& jobs,
                                          const std::optional<std::string>& key,
                                          const std::optional<std::string>& launched_runs_dir = std::nullopt,
-                                         const BudgetCheck& budget = nullptr);
+                                         const BudgetCheck& budget = nullptr,
+                                         const std::optional<std::string>& study_plan = std::nullopt);
+  // Study sweeps whose screening stage has ended (no stage-1 job queued or running) and is not yet decided.
+  std::vector<int64_t> studies_to_decide() const;
+  std::optional<StudyRecord> study(int64_t sweep_id) const;
+  // Records the screening stage's outcome and queues the chosen detailed jobs (stage 2), in one transaction;
+  // false (nothing written) when the study was already decided.
+  bool decide_study(int64_t sweep_id, const std::string& outcome, const std::vector<JobSpec>& jobs);
   // The backlog of `submitter` and of all, from a connection of its own (GET /health: never behind a writer
   // or a long list). counts_by_status likewise.
   Backlog backlog(const std::string& submitter) const;

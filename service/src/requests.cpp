@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "runout/scenarios/cost_model.hpp"
+#include "runout/scenarios/multi_fidelity.hpp"
 #include "runout/scenarios/scene.hpp"
 #include "runout/scenarios/scene_refs.hpp"
 #include "runout/scenarios/sweep.hpp"
@@ -558,6 +559,50 @@ void add_ensemble_jobs(NewSweep& out, const Base& b, const Fidelity& fidelity, c
   }
 }
 
+// A study's detailed stage (docs/service.md, "Studies"): every layout at the ensemble's median member at the
+// study's rung, each built as a scene now, so that a layout the detailed rung cannot run is refused before the
+// screening stage spends anything; the chosen ones are queued once that stage has ended.
+void add_study_candidates(NewSweep& out, const Base& b, const Fidelity& detailed, const Limits& limits) {
+  NewSweep::Study st;
+  st.fidelity = detailed;
+  st.median = median_member(parse_ensemble(*out.ensemble_json, out.base_json));  // checked by add_ensemble_jobs
+  for (const auto& v : out.variants) {
+    JobSpec spec;
+    try {
+      spec = make_job(b.scene, "study.fidelity", v.structures, v.name, detailed, limits, st.median);
+    } catch (const ApiError& err) {
+      throw ApiError(err.status, err.field, "layout '" + v.name + "' at the median member: " + err.what());
+    }
+    spec.scene_id = b.scene_id;
+    spec.sweep = out.name + "-median";  // as `runout study` names its detailed sweep
+    spec.stage = 2;
+    st.candidates.push_back(std::move(spec));
+  }
+  out.study = std::move(st);
+}
+
+// A study's own fields: {"fidelity": the detailed rung (default standard)}; a study needs an ensemble.
+std::optional<Fidelity> parse_study(const json& j, FieldErrors& errors) {
+  if (!j.contains("study")) return std::nullopt;
+  if (!j["study"].is_object()) {
+    errors.add(ApiError(422, "study", "must be an object {fidelity} (docs/service.md, \"Studies\")"));
+    return std::nullopt;
+  }
+  refuse_unknown(j["study"], "study", {"fidelity"}, errors);
+  if (!j.contains("ensemble"))
+    errors.add(ApiError(422, "study", "a study screens an ensemble: give the sweep an ensemble (docs/scene-format.md, "
+                                      "\"Ensembles\")"));
+  Fidelity f;
+  errors.check([&] {
+    try {
+      f = parse_fidelity(j["study"], "fidelity");
+    } catch (const ApiError& e) {
+      throw ApiError(e.status, "study." + e.field, e.what());
+    }
+  });
+  return f;
+}
+
 }  // namespace
 
 NewSweep parse_sweep_request(const std::string& body, const Limits& limits, const JobQueue& queue,
@@ -565,8 +610,10 @@ NewSweep parse_sweep_request(const std::string& body, const Limits& limits, cons
   const json j = parse_body(body);
   // The envelope's fields are checked together (every invalid one is reported); each layout's scene after them.
   FieldErrors errors;
-  refuse_unknown(j, "", {"name", "base", "scene_id", "fidelity", "variants", "factorial", "ensemble", "idempotency_key"},
+  refuse_unknown(j, "",
+                 {"name", "base", "scene_id", "fidelity", "variants", "factorial", "ensemble", "study", "idempotency_key"},
                  errors);
+  const std::optional<Fidelity> detailed = parse_study(j, errors);
   if (j.contains("ensemble") && !j["ensemble"].is_object())
     errors.add(ApiError(422, "ensemble",
                         "must be an object {parameters, members, seed} (docs/scene-format.md, \"Ensembles\")"));
@@ -578,7 +625,10 @@ NewSweep parse_sweep_request(const std::string& body, const Limits& limits, cons
       out.name = j["name"].get<std::string>();
     });
   Fidelity fidelity;
-  errors.check([&] { fidelity = parse_fidelity(j, "fidelity"); });
+  if (detailed && !j.contains("fidelity")) fidelity.name = "screening";  // a study's first stage
+  errors.check([&] {
+    if (j.contains("fidelity")) fidelity = parse_fidelity(j, "fidelity");
+  });
   out.fidelity = fidelity.dp ? "custom" : fidelity.name;
   std::optional<Base> base;
   errors.check([&] { base = base_of(j, "base", queue); });
@@ -598,6 +648,10 @@ NewSweep parse_sweep_request(const std::string& body, const Limits& limits, cons
   if (j.contains("ensemble")) {
     out.ensemble_json = j["ensemble"].dump();
     add_ensemble_jobs(out, b, fidelity, limits);
+    if (detailed) {
+      for (auto& spec : out.jobs) spec.stage = 1;
+      add_study_candidates(out, b, *detailed, limits);
+    }
     return out;
   }
   for (size_t k = 0; k < variants.size(); ++k) {

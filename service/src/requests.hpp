@@ -84,6 +84,15 @@ struct NewSweep {
   std::string base_json;
   std::vector<SweepVariant> variants;  // the layouts (an ensemble's jobs are every layout at every member)
   std::optional<std::string> ensemble_json;  // the request's "ensemble", when it has one
+  // A multi-fidelity study (docs/service.md, "Studies"): `jobs` are its screening stage (stage 1); here the
+  // detailed stage's rung and its candidates, every layout at the ensemble's median member (stage 2), of which
+  // the layouts that can still be best are queued once the screening stage has ended.
+  struct Study {
+    Fidelity fidelity;
+    std::vector<ParameterValue> median;
+    std::vector<JobSpec> candidates;
+  };
+  std::optional<Study> study;
 };
 
 // Bodies are JSON text; malformed JSON is a 400, everything else that is wrong a 422.

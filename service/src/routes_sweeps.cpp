@@ -9,8 +9,9 @@ namespace runout::service {
 
 namespace {
 
-// A sweep with its jobs counted by status. `status`: running while a job is queued or running, done when
-// every job is done, incomplete when all finished but some failed or were cancelled.
+// A sweep with its jobs counted by status. `status`: running while a job is queued or running (or a study's
+// detailed stage is still to be decided), done when every job is done, incomplete when all finished but some
+// failed or were cancelled.
 json sweep_summary(const SweepRow& s, const std::map<std::string, int64_t>& counts) {
   json by_status = {{"queued", 0}, {"running", 0}, {"done", 0}, {"failed", 0}, {"cancelled", 0}};
   int64_t total = 0;
@@ -19,7 +20,10 @@ json sweep_summary(const SweepRow& s, const std::map<std::string, int64_t>& coun
     total += n;
   }
   const int64_t active = by_status["queued"].get<int64_t>() + by_status["running"].get<int64_t>();
-  const std::string status = active > 0 ? "running" : by_status["done"].get<int64_t>() == total ? "done" : "incomplete";
+  const bool undecided = s.study && !s.study_released;  // a study's detailed stage is still to come
+  const std::string status = active > 0 || undecided                      ? "running"
+                             : by_status["done"].get<int64_t>() == total ? "done"
+                                                                          : "incomplete";
   const std::string self = kPrefix + "/sweeps/" + std::to_string(s.id);
   return {{"id", s.id},
           {"name", s.name},
@@ -27,6 +31,7 @@ json sweep_summary(const SweepRow& s, const std::map<std::string, int64_t>& coun
           {"fidelity", s.fidelity},
           {"created_at", s.created_at},
           {"status", status},
+          {"study", s.study},
           {"jobs_total", total},
           {"jobs_by_status", by_status},
           {"links", {{"self", self}, {"jobs", kPrefix + "/jobs?sweep=" + std::to_string(s.id)}}}};
@@ -59,11 +64,22 @@ void Server::Impl::routes_sweeps() {
       j.submitted_by = who;
       requested += j.cpu_seconds;
     }
-    std::optional<std::string> launched;  // handed to the operator's MPI launch command (sweep_launcher.hpp)
-    if (launcher) launched = fs::absolute(opt.runs_dir / "service").string();
+    std::optional<std::string> plan;  // a study: its detailed stage's every candidate counts against the budget
+    if (s.study) {
+      for (auto& j : s.study->candidates) {
+        j.cpu_seconds = cpu_seconds(j);
+        j.submitted_by = who;
+        requested += j.cpu_seconds;
+      }
+      plan = study_plan_json(s);
+    }
+    // Handed to the operator's MPI launch command (sweep_launcher.hpp); a study's stages run on the workers,
+    // which decide between them.
+    std::optional<std::string> launched;
+    if (launcher && !s.study) launched = fs::absolute(opt.runs_dir / "service").string();
     auto [row, created] = queue->submit_sweep(s.name, s.scene_id, s.fidelity, s.jobs, pick_key(hkey, bkey), launched,
-                                              budget_check(requested));
-    if (created && launcher) {
+                                              budget_check(requested), plan);
+    if (created && launched) {
       try {
         launcher->launch({row.id, s.name, s.base_json, s.variants, s.ensemble_json, s.fidelity, s.jobs.front().dp});
       } catch (const std::exception& e) {  // its jobs must not stay `running` for ever
@@ -75,7 +91,8 @@ void Server::Impl::routes_sweeps() {
       wake.notify_all();
     }
     json jobs = json::array();
-    for (const auto& j : queue->list(std::nullopt, row.id, 10000, 0)) jobs.push_back(job_json(j, false));
+    const auto rows = queue->list(std::nullopt, row.id, 10000, 0);
+    for (const auto& j : rows) jobs.push_back(job_json(j, false));
     res.set_header("Location", kPrefix + "/sweeps/" + std::to_string(row.id));
     send_json(res, created ? 201 : 200,
               {{"id", row.id},
@@ -83,7 +100,8 @@ void Server::Impl::routes_sweeps() {
                {"scene_id", row.scene_id ? json(*row.scene_id) : json(nullptr)},
                {"fidelity", row.fidelity},
                {"created_at", row.created_at},
-               {"jobs", jobs}});
+               {"jobs", jobs},
+               {"study", row.study ? study_of(row, rows) : json(nullptr)}});
   });
   // The sweeps submitted, newest first, a page at a time.
   add("/sweeps", "GET", [this](const httplib::Request& req, httplib::Response& res, const std::smatch&) {
@@ -120,6 +138,7 @@ void Server::Impl::routes_sweeps() {
       const bool finished = j.status == "done" || j.status == "failed" || j.status == "cancelled";
       fraction += finished ? 1.0 : jj["progress"]["fraction"].get<double>();
       variants.push_back({{"variant", j.variant},
+                          {"stage", jj["stage"]},
                           {"job", j.id},
                           {"status", j.status},
                           {"progress", jj["progress"]},
@@ -131,6 +150,7 @@ void Server::Impl::routes_sweeps() {
     out["variants"] = variants;
     // Read once the sweep has finished: a poll of a running sweep must not read every member's metrics.
     out["ensemble"] = out["status"] != "running" ? ensemble_of(jobs, row->name) : json(nullptr);
+    out["study"] = row->study ? study_of(*row, jobs) : json(nullptr);
     out["links"]["compare"] =
         out["status"] == "done" && !jobs.empty() ? json(kPrefix + "/compare?sweep=" + m[1].str()) : json(nullptr);
     send_json(res, 200, out);

@@ -165,6 +165,7 @@ void Server::Impl::worker_loop(int index) {
       spdlog::error("worker {}: claiming a job: {}", index, e.what());
     }
     if (!job) {
+      if (decide_studies()) continue;  // a study's detailed jobs were queued
       std::unique_lock lock(mutex);
       wake.wait_for(lock, std::chrono::seconds(1), [&] { return stopping; });
       continue;
@@ -172,6 +173,7 @@ void Server::Impl::worker_loop(int index) {
     busy++;
     run_job(*job);
     busy--;
+    if (job->stage == 1) decide_studies();
   }
 }
 
@@ -275,6 +277,8 @@ void Server::Impl::write_sweep_differences(const Job& finished) {
   auto jobs = queue->list(std::nullopt, sweep_id, 100000, 0);
   for (auto& j : jobs)
     if (j.id == finished.id) j = finished;
+  // A study's stages are compared within themselves: a detailed layout against the detailed baseline.
+  std::erase_if(jobs, [&](const Job& j) { return j.stage != finished.stage; });
   if (jobs.size() < 2 || jobs.front().status != "done") return;
   const Job& base = jobs.front();
   for (const auto& j : jobs) {

@@ -99,6 +99,7 @@ inline json job_json(const Job& j, bool full) {
               {"sweep_id", or_null(j.sweep_id)},
               {"sweep", j.sweep},
               {"variant", j.variant},
+              {"stage", j.stage > 0 ? json(j.stage) : json(nullptr)},
               {"particles", j.particles},
               {"progress", progress},
               {"attempts", j.attempts},
@@ -497,6 +498,15 @@ struct Server::Impl {
   mutable std::mutex shipped_mutex;
   std::thread seeder;
   std::mutex differences_mutex;
+  // Multi-fidelity studies (studies.cpp): deciding their screening stage, and GET /sweeps/{id}'s `study`.
+  bool decide_studies();  // true when one was decided (its detailed jobs queued)
+  bool decide_study(int64_t sweep_id);
+  json study_of(const SweepRow& row, const std::vector<Job>& jobs) const;
+  std::mutex studies_mutex;
 };
+
+// A study sweep's plan as the queue stores it (studies.cpp): its detailed stage's candidate jobs, layouts,
+// ensemble and base scene.
+std::string study_plan_json(const NewSweep& s);
 
 }  // namespace runout::service

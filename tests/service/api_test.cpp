@@ -426,6 +426,97 @@ TEST_F(Api, AnEnsembleSweepRunsEveryLayoutAtEveryMemberAndIsSummarised) {
   EXPECT_TRUE(e.at("layouts_detail").contains("A"));
 }
 
+// A multi-fidelity study as a sweep (issue 45 item 3, docs/service.md "Studies"): the members are its screening
+// stage; once they have ended, the layouts that can still be best run at the detailed rung at the ensemble's
+// median member, as `runout study` runs them. The plan is in the store from the submission on: a service
+// killed before any job ran picks the study up where it was. No layout here has the ranking metric (no
+// cross-section), so each is kept: what must hold is which jobs run, where, at what rung and with what material.
+TEST_F(Api, AStudySweepRunsTheChosenLayoutsAtTheMedianMemberAfterItsScreeningStage) {
+  start({"--workers", "0"});
+  const Reply scene = post("/scenes", tiny_scene("base"));
+  ASSERT_EQ(scene.status, 201) << scene.text;
+  const json layouts = json::array({{{"name", "A"}}, {{"name", "B"}}});
+  const json ensemble = {{"parameters", json::array({{{"pointer", "/materials/0/viscosity"}, {"values", {0.001, 0.003}}}})}};
+  const json id = scene.body.at("id");
+  expect_problem(post("/sweeps", {{"scene_id", id}, {"variants", layouts}, {"study", json::object()}}), 422,
+                 "invalid-field", "/api/v1/sweeps", "study");
+  expect_problem(post("/sweeps", {{"scene_id", id}, {"variants", layouts}, {"ensemble", ensemble},
+                                  {"study", {{"fidelity", "finest"}}}}),
+                 422, "invalid-field", "/api/v1/sweeps", "study.fidelity");
+  expect_problem(post("/sweeps", {{"scene_id", id}, {"variants", layouts}, {"ensemble", ensemble}, {"study", 2}}), 422,
+                 "invalid-field", "/api/v1/sweeps", "study");
+  EXPECT_EQ(get("/sweeps").body.at("sweeps").size(), 0u) << "nothing queued by a refused study";
+
+  const Reply sweep = post("/sweeps", {{"name", "visc"}, {"scene_id", id}, {"variants", layouts}, {"fidelity", "draft"},
+                                       {"ensemble", ensemble}, {"study", {{"fidelity", "standard"}}}});
+  ASSERT_EQ(sweep.status, 201) << sweep.text;
+  ASSERT_EQ(sweep.body.at("jobs").size(), 4u);
+  for (const auto& j : sweep.body.at("jobs")) {
+    EXPECT_EQ(j.at("stage"), 1);
+    EXPECT_EQ(j.at("fidelity"), "draft");
+  }
+  const json& planned = sweep.body.at("study");
+  EXPECT_EQ(planned.at("stage"), "screening");
+  EXPECT_EQ(planned.at("detailed").at("candidates"), 2);
+  EXPECT_EQ(planned.at("detailed").at("jobs_total"), 0);
+  EXPECT_TRUE(planned.at("outcome").is_null());
+  const std::string self = "/sweeps/" + std::to_string(sweep.body.at("id").get<int64_t>());
+  EXPECT_EQ(get(self).body.at("status"), "running");
+  // A second study whose screening jobs are all cancelled: it is decided, and nothing of it runs after.
+  const Reply stopped = post("/sweeps", {{"name", "stopped"}, {"scene_id", id}, {"variants", layouts}, {"fidelity", "draft"},
+                                         {"ensemble", ensemble}, {"study", {{"fidelity", "standard"}}}});
+  ASSERT_EQ(stopped.status, 201) << stopped.text;
+  for (const auto& j : stopped.body.at("jobs"))
+    EXPECT_EQ(request("DELETE", "/api/v1/jobs/" + std::to_string(j.at("id").get<int64_t>())).status, 200);
+
+  server_.kill9();
+  start({"--workers", "1", "--threads-per-job", "1"});
+  json detail;
+  for (int k = 0; k < 1200; ++k) {  // at most 120 s
+    detail = get(self).body;
+    if (detail.value("status", "") != "running") break;
+    std::this_thread::sleep_for(100ms);
+  }
+  ASSERT_EQ(detail.value("status", ""), "done") << detail.dump();
+  const json& study = detail.at("study");
+  EXPECT_EQ(study.at("stage"), "done");
+  EXPECT_EQ(study.at("screening").at("jobs_by_status").at("done"), 4);
+  EXPECT_EQ(study.at("detailed").at("jobs_by_status").at("done"), 2);
+  const json& outcome = study.at("outcome");
+  ASSERT_TRUE(outcome.is_object()) << study.dump();
+  EXPECT_EQ(outcome.at("members"), 2);
+  EXPECT_EQ(outcome.at("detailed_sweep"), "visc-median");
+  ASSERT_EQ(outcome.at("layouts").size(), 2u);
+  for (const auto& l : outcome.at("layouts")) EXPECT_TRUE(l.at("chosen").get<bool>()) << l.dump();
+  EXPECT_EQ(outcome.at("ranking").size(), 2u);
+  ASSERT_EQ(outcome.at("median_member").size(), 1u);
+  EXPECT_DOUBLE_EQ(outcome.at("median_member")[0].at("value").get<double>(), 0.002);
+  std::vector<std::string> detailed;
+  for (const auto& v : detail.at("variants")) {
+    if (v.at("stage") != 2) continue;
+    detailed.push_back(v.at("variant"));
+    const json job = get("/jobs/" + std::to_string(v.at("job").get<int64_t>())).body;
+    EXPECT_EQ(job.at("fidelity"), "standard");
+    EXPECT_EQ(job.at("sweep"), "visc-median");
+    EXPECT_DOUBLE_EQ(job.at("scene").at("materials")[0].at("viscosity").get<double>(), 0.002) << v.dump();
+  }
+  EXPECT_EQ(detailed, (std::vector<std::string>{"A", "B"}));
+  EXPECT_TRUE(detail.at("ensemble").is_object()) << "the screening members are summarised as an ensemble";
+
+  const std::string stopped_self = "/sweeps/" + std::to_string(stopped.body.at("id").get<int64_t>());
+  json cancelled;
+  for (int k = 0; k < 100; ++k) {  // decided by an idle worker within a second or two
+    cancelled = get(stopped_self).body;
+    if (cancelled.value("status", "") != "running") break;
+    std::this_thread::sleep_for(100ms);
+  }
+  EXPECT_EQ(cancelled.value("status", ""), "incomplete") << cancelled.dump();
+  ASSERT_TRUE(cancelled.at("study").at("outcome").is_object()) << cancelled.dump();
+  EXPECT_EQ(cancelled.at("study").at("outcome").at("members"), 0);
+  EXPECT_NE(cancelled.at("study").at("outcome").value("note", "").find("cancelled"), std::string::npos);
+  EXPECT_EQ(cancelled.at("study").at("detailed").at("jobs_total"), 0) << "no detailed job of a cancelled study";
+}
+
 // A sweep whose jobs have not run has no report yet: 409.
 TEST_F(Api, ASweepsReportWaitsForADoneJob) {
   start({"--workers", "0"});

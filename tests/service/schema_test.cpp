@@ -90,8 +90,10 @@ TEST_F(Schema, AFileWithTheRunStoresOldServiceTablesOpensAndKeepsItsJobs) {
   const Reply health = get("/health");
   ASSERT_EQ(health.status, 200);
   EXPECT_EQ(health.body.at("backlog").at("jobs"), 0);  // a done job is no backlog
-  EXPECT_EQ(query_int("SELECT MAX(version) FROM service_schema_migrations"), 2);
+  // Version 3 (2026-12-07) added the studies: an old job is no study's.
+  EXPECT_EQ(query_int("SELECT MAX(version) FROM service_schema_migrations"), 3);
   EXPECT_EQ(query_int("SELECT cpu_seconds FROM jobs WHERE id = 1"), 0);
+  EXPECT_TRUE(job.body.at("stage").is_null()) << job.text;
   // New jobs go on after the old ones.
   const Reply next = post("/jobs", {{"scene", tiny_scene("new")}});
   ASSERT_EQ(next.status, 201) << next.text;
@@ -107,7 +109,7 @@ TEST_F(Schema, ARunStoreWithoutServiceTablesGetsThemFromTheService) {
   EXPECT_EQ(post("/jobs", {{"scene", tiny_scene("fresh")}}).status, 201);
   server_.terminate();
   start({"--workers", "0"});  // a second start migrates nothing and keeps the job
-  EXPECT_EQ(query_int("SELECT COUNT(*) FROM service_schema_migrations"), 2);
+  EXPECT_EQ(query_int("SELECT COUNT(*) FROM service_schema_migrations"), 3);
   EXPECT_EQ(get("/jobs/1").status, 200);
 }
 

@@ -510,6 +510,39 @@ async function main() {
   log(`sweep of 2 jobs (estimate ${sweepSeconds.toFixed(1)} s) submitted and cancelled from the page`);
   await page.check('input[name=mode][value=single]');
 
+  // A multi-fidelity study (docs/service.md, "Studies") on a tiny 2D dam break: two layouts over a viscosity
+  // ensemble of two members at draft, then both layouts at standard at the median viscosity. The sweeps card
+  // shows its two stages with the API's counts, the decision and the 3D ranking once it is done.
+  const tiny = {
+    name: 'study-tank', dimensions: 2, dp: 0.02, duration: 0.05,
+    materials: [{ name: 'water', rheology: 'newtonian', density: 1000, viscosity: 0.001 }],
+    fluid: [{ min: [0, 0], max: [0.2, 0.2], material: 'water' }],
+    boundaries: [{ type: 'tank', min: [0, 0], max: [0.4, 0.3] }],
+  };
+  const studyReply = await api(base, 'POST', '/sweeps', {
+    name: 'e2e-study', base: tiny, variants: [{ name: 'A' }, { name: 'B' }], fidelity: 'draft',
+    ensemble: { parameters: [{ pointer: '/materials/0/viscosity', values: [0.001, 0.003] }] }, study: { fidelity: 'standard' },
+  });
+  equal(studyReply.status, 201, `POST /sweeps with a study: ${studyReply.text.slice(0, 300)}`);
+  const studyId = studyReply.json.id;
+  const studyItem = `#sweeps-list li[data-sweep="${studyId}"]`;
+  await page.waitForSelector(`${studyItem} .badge.status-done`, { timeout: 300_000 });
+  const studyView = (await api(base, 'GET', `/sweeps/${studyId}`)).json.study;
+  equal(studyView.stage, 'done', 'the study has run both stages');
+  equal(JSON.stringify([studyView.screening.jobs_by_status.done, studyView.detailed.jobs_by_status.done, studyView.detailed.candidates]),
+    JSON.stringify([4, 2, 2]), 'every member screened; both layouts (neither has a ranking value, so none is dropped) in 3D');
+  const stages = await page.$$eval(`${studyItem} .stage > span`, (spans) => spans.map((x) => x.textContent));
+  equal(JSON.stringify(stages), JSON.stringify([
+    `1 · screening (draft): ${studyView.screening.jobs_by_status.done}/${studyView.screening.jobs_total} done`,
+    `2 · 3D (standard): ${studyView.detailed.jobs_by_status.done}/${studyView.detailed.jobs_total} done, ${studyView.detailed.jobs_total} of ${studyView.detailed.candidates} layouts`,
+  ]), 'the study\'s two stages as the API counts them');
+  const lines = await page.$$eval(`${studyItem} > div.small`, (d) => d.map((x) => x.textContent));
+  check(lines.some((t) => t.startsWith(`screened over ${studyView.outcome.members} members`)), `the decision is shown (${lines.join(' | ')})`);
+  check(lines.some((t) => t.endsWith(studyView.outcome.ranking.join(', '))), `the 3D ranking is shown (${lines.join(' | ')})`);
+  await page.evaluate(() => document.getElementById('sweeps-card').scrollIntoView({ block: 'start' }));
+  await shot('web-study-1280x800.png');
+  log(`study of 2 layouts x 2 members: both stages shown (${stages.join('; ')})`);
+
   // Phone width: no sideways scrolling of the page; form, jobs and the compare view.
   await page.setViewportSize({ width: 390, height: 844 });
   await page.selectOption('#fidelity', 'draft');

@@ -50,6 +50,15 @@ struct MultiFidelityResult {
   std::vector<std::string> detailed_ranking;
   bool stopped = false;  // a stage was stopped (Ctrl-C); what ran is stored
 };
+// The screening stage's outcome, as `runout study` and the service's study sweeps (docs/service.md, "Studies")
+// both take it: the layouts chosen from the summary (select_layouts; the baseline is the sweep's first layout),
+// the detailed sweep of those at the median member (median_sweep) and each chosen layout's screening p50 of
+// the ranking metric. The detailed values are left unset (set_detailed_values).
+MultiFidelityResult screening_outcome(const Sweep& ensemble_sweep, const EnsembleSummary& screening);
+// Each layout of the detailed sweep's value of the ranking metric (nullopt: its run has none or did not
+// complete) and the detailed ranking: lowest first, values equal to 4 significant digits by name, no value last.
+void set_detailed_values(MultiFidelityResult& r, const std::map<std::string, std::optional<double>>& values);
+
 // Runs the two stages (each resumable through the store, as sweeps are). Throws SceneError ("ensemble") for a
 // sweep without an ensemble.
 MultiFidelityResult run_multi_fidelity_study(RunStore& store, const Sweep& sweep, const MultiFidelityOptions& options);
