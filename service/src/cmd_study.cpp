@@ -42,7 +42,13 @@ void print(const MultiFidelityResult& r) {
   for (const auto& l : r.detailed_ranking)
     std::printf("  %-8s %14s %14s\n", l.c_str(), value_text(r.screening_p50.at(l)).c_str(),
                 value_text(r.detailed_value.at(l)).c_str());
-  if (!r.detailed_ranking.empty()) std::printf("\nBest in 3D: %s\n", r.detailed_ranking.front().c_str());
+  if (r.detailed_ranking.empty()) return;
+  // Layouts whose values print alike tie (the ranking's rule): all of them are named, not the first by name.
+  const std::string top = value_text(r.detailed_value.at(r.detailed_ranking.front()));
+  std::string best;
+  for (const auto& l : r.detailed_ranking)
+    if (value_text(r.detailed_value.at(l)) == top) best += (best.empty() ? "" : ", ") + l;
+  std::printf("\nBest in 3D: %s%s\n", best.c_str(), best.find(',') == std::string::npos ? "" : " (tied)");
 }
 
 int study(const StudyArgs& a) {
