@@ -135,8 +135,7 @@ void Server::Impl::routes_sweeps() {
     const auto jobs = queue->list(std::nullopt, id, 100000, 0);  // at most 1024 (a sweep's variants)
     for (const auto& j : jobs) {
       const json jj = job_json(j, false);
-      const bool finished = j.status == "done" || j.status == "failed" || j.status == "cancelled";
-      fraction += finished ? 1.0 : jj["progress"]["fraction"].get<double>();
+      fraction += sweep_share(j);
       variants.push_back({{"variant", j.variant},
                           {"stage", jj["stage"]},
                           {"job", j.id},

@@ -81,11 +81,18 @@ inline std::string trim(const std::string& s) {
   return a == std::string::npos ? std::string() : s.substr(a, b - a + 1);
 }
 
+// A job's simulated fraction of its duration.
+inline double run_fraction(const Job& j) { return j.duration > 0 ? std::min(1.0, j.sim_time / j.duration) : 0.0; }
+// What a job adds to its sweep's progress: a finished job (done, failed, cancelled) counts 1.
+inline double sweep_share(const Job& j) {
+  return j.status == "done" || j.status == "failed" || j.status == "cancelled" ? 1.0 : run_fraction(j);
+}
+
 inline json job_json(const Job& j, bool full) {
   auto or_null = [](const auto& o) -> json { return o ? json(*o) : json(nullptr); };
   json progress = {{"simulated_time", j.sim_time},
                    {"duration", j.duration},
-                   {"fraction", j.duration > 0 ? std::min(1.0, j.sim_time / j.duration) : 0.0},
+                   {"fraction", run_fraction(j)},
                    {"steps", j.steps},
                    {"wall_seconds", j.wall_seconds},
                    {"eta_seconds", or_null(j.eta_seconds)}};

@@ -57,8 +57,7 @@ json stage_json(const std::vector<Job>& jobs, int stage, const std::string& fide
     if (j.stage != stage) continue;
     by_status[j.status] = by_status[j.status].get<int64_t>() + 1;
     ++total;
-    const bool finished = j.status == "done" || j.status == "failed" || j.status == "cancelled";
-    fraction += finished ? 1.0 : j.duration > 0 ? std::min(1.0, j.sim_time / j.duration) : 0.0;
+    fraction += sweep_share(j);
   }
   return {{"fidelity", fidelity},
           {"jobs_total", total},
