@@ -79,9 +79,11 @@ struct PlanCells {
     uint32_t begin, end;
     real sx, sy;  // image shift: the neighbour sits at (x_j + sx, y_j + sy)
   };
-  // The particle ranges of the cells within (kx, ky) cells of cell (cx, cy), with their image shifts.
+  // The particle ranges of the cells within (kx, ky) cells of cell (cx, cy), with their image shifts, in the
+  // order of their keys within each row of cells.
   void neighbour_ranges(int64_t cx, int64_t cy, int64_t kx, int64_t ky, std::vector<Range>& out) const {
     out.clear();
+    if (!periodic[0]) return row_ranges(cx, cy, kx, ky, out);
     for (int64_t oy = -ky; oy <= ky; ++oy)
       for (int64_t ox = -kx; ox <= kx; ++ox) {
         int64_t c[2] = {cx + ox, cy + oy};
@@ -103,6 +105,30 @@ struct PlanCells {
         const size_t ci = static_cast<size_t>(it - keys.begin());
         out.push_back({begin[ci], begin[ci + 1], shift[0], shift[1]});
       }
+  }
+
+  // Without a periodic x axis a row's cells cx - kx .. cx + kx are consecutive keys, and their particles one
+  // consecutive range of the sorted order: one search and one range a row. A kernel grown to several cells on a
+  // sparse flow (adaptive smoothing) would otherwise search every cell of its square, most of them empty.
+  void row_ranges(int64_t cx, int64_t cy, int64_t kx, int64_t ky, std::vector<Range>& out) const {
+    const int64_t x0 = std::max<int64_t>(0, cx - kx), x1 = std::min<int64_t>(count[0] - 1, cx + kx);
+    if (x0 > x1) return;
+    for (int64_t oy = -ky; oy <= ky; ++oy) {
+      int64_t y = cy + oy;
+      real shift = 0;
+      if (periodic[1]) {
+        const int64_t w = y >= 0 ? y / count[1] : -((-y + count[1] - 1) / count[1]);  // floor division
+        y -= w * count[1];
+        shift = static_cast<real>(w) * period[1];
+      } else if (y < 0 || y >= count[1]) {
+        continue;
+      }
+      const auto first = std::lower_bound(keys.begin(), keys.end(), key(x0, y));
+      const auto last = std::upper_bound(first, keys.end(), key(x1, y));
+      if (first == last) continue;
+      out.push_back({begin[static_cast<size_t>(first - keys.begin())], begin[static_cast<size_t>(last - keys.begin())],
+                     0, shift});
+    }
   }
 
   // A position wrapped into a periodic axis' period.
