@@ -8,6 +8,9 @@
 #include <Eigen/Dense>
 #include <nlohmann/json.hpp>
 
+#include "runout/terrain/terrain.hpp"
+#include "screening_run.hpp"
+
 namespace runout {
 
 namespace {
@@ -39,9 +42,37 @@ double flow_columns(const CostFeatures& f) {
   return std::pow(std::max(f.fluid, f.fluid_peak), (f.dimensions - 1.0) / f.dimensions);
 }
 
+// The screening rung's features (cost_model.hpp): its particles at screening.spacing, its kernel's
+// neighbours, and the CFL step of the fastest flow the corridor's energy line allows.
+CostFeatures screening_cost_features(const Scene& scene) {
+  const nlohmann::json j = nlohmann::json::parse(scene.canonical_json);
+  const ScreeningSettings s = screening_settings(j, scene);
+  const terrain::TerrainModel& tm = *scene.terrain;
+  const auto& setup = std::get<SceneSetup<3>>(scene.setup);
+  const ScreeningParticles start = screening_particles(j, tm, s.spacing);
+  CostFeatures f;
+  f.model = "screening";
+  f.dimensions = scene.dimensions;
+  f.duration = scene.duration;
+  f.fluid = static_cast<double>(start.release);
+  double inflow = 0;
+  if (start.inflow_particle_volume > 0)
+    for (const auto& in : setup.inlets) inflow += inlet_volume(in, scene.dp, scene.duration) / start.inflow_particle_volume;
+  f.fluid_mean = f.fluid + 0.5 * inflow;
+  f.fluid_peak = f.fluid + inflow;
+  const double h = s.kernel_ratio() * s.spacing;
+  f.neighbours = (h / s.spacing) * (h / s.spacing);
+  f.passes = 1;
+  const auto& g = setup.config.gravity;
+  const double speed = std::sqrt(2.0 * std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * tm.max_energy_height);
+  f.dt0 = speed > 0 ? std::min<double>(s.dt_max, s.cfl * h / speed) : s.dt_max;
+  return f;
+}
+
 }  // namespace
 
 CostFeatures cost_features(const Scene& scene) {
+  if (is_screening(scene)) return screening_cost_features(scene);
   CostFeatures f;
   f.dimensions = scene.dimensions;
   f.duration = scene.duration;
@@ -100,6 +131,11 @@ CostModel CostModel::calibrated() {
   m.two_d = {1.016, 1.237e-7, 3.24e-8, 7.80e-5};
   m.three_d = {0.974, 2.443e-7, 4.53e-8, 2.256e-4};
   m.bed_per_flow_column = 114;
+  // The screening rung's, fitted by `runout calibrate` on 10 completed one-thread screening runs, one at a time on
+  // the idle 2-core machine, 2026-12-07, after its neighbour search went by rows of cells: the flume's C0 at three
+  // kernels, the Jacksboro block and hydrograph, Alr at 14 and 20 deg (scripts/screening_cost_runs.sh;
+  // docs/tradeoff.md, "The screening rung's cost").
+  m.screening = {0.3985, 7.209e-8, 0.0, 5.091e-4, 1.315e-7};
   // Not fitted by `runout calibrate` (its runs are one-thread): least squares on the relative time error of
   // twelve one- against two-thread pairs, 2026-11-29 (docs/tradeoff.md, "Two threads"): the flume (C0 at
   // 0.07 / 0.05 / 0.03 m), the catchment's G7 at 6 and 4 m, the Jacksboro slope at 1 m, the 2D dam break and
@@ -110,6 +146,11 @@ CostModel CostModel::calibrated() {
   m.parallel_efficiency = 0.8;
   m.parallel_half_fluid = 70;
   return m;
+}
+
+const CostCoefficients& CostModel::coefficients(const CostFeatures& f) const {
+  if (f.model == "screening") return screening;
+  return f.dimensions == 2 ? two_d : three_d;
 }
 
 double CostModel::boundary_peak(const CostFeatures& f) const {
@@ -123,7 +164,7 @@ double CostModel::speedup(const CostFeatures& f, int threads) const {
 }
 
 CostPrediction CostModel::predict(const CostFeatures& f, int threads) const {
-  const CostCoefficients& k = f.dimensions == 2 ? two_d : three_d;
+  const CostCoefficients& k = coefficients(f);
   CostPrediction p;
   p.particles = f.fluid + f.boundary;
   p.fluid_peak = std::max(f.fluid, f.fluid_peak);
@@ -131,7 +172,9 @@ CostPrediction CostModel::predict(const CostFeatures& f, int threads) const {
   p.steps = f.dt0 > 0 ? std::ceil(k.step_ratio * f.duration / f.dt0) : 0;
   p.speedup = speedup(f, threads);
   p.seconds_per_step =
-      (k.a_fluid * f.fluid_mean * f.neighbours * f.passes + k.b_boundary * p.boundary_peak + k.c_step) / p.speedup;
+      (k.a_fluid * f.fluid_mean * f.neighbours * f.passes + k.b_fluid * f.fluid_mean + k.b_boundary * p.boundary_peak +
+       k.c_step) /
+      p.speedup;
   p.seconds = p.steps * p.seconds_per_step;
   return p;
 }
@@ -149,49 +192,75 @@ double fit_bed_per_flow_column(const std::vector<CostObservation>& runs, double 
   return n > 0 ? std::exp(log_sum / n) : prior;
 }
 
+// The coefficients of one group of runs (a model in a dimension). Steps: the geometric mean of measured /
+// (duration / dt0), i.e. least squares on log ratio. Time per step on one thread, y = wall * speedup / steps,
+// linear in three columns (SPH: the pair term, the walls alive, 1; screening: the pair term, the flow
+// particles, 1); rows divided by y so the fit minimises relative error (a small scene counts as much as a large
+// one). A negative coefficient is dropped and the rest refitted.
+void fit_group(const std::vector<const CostObservation*>& obs, const CostModel& out, bool screening, CostCoefficients& k) {
+  double log_sum = 0;
+  for (const auto* r : obs) log_sum += std::log(r->steps * r->features.dt0 / r->features.duration);
+  k.step_ratio = std::exp(log_sum / obs.size());
+  std::vector<int> cols = {0, 1, 2};
+  for (;;) {
+    Eigen::MatrixXd A(obs.size(), cols.size());
+    Eigen::VectorXd b = Eigen::VectorXd::Ones(obs.size());
+    for (size_t i = 0; i < obs.size(); ++i) {
+      const auto& r = *obs[i];
+      const double y = r.wall_seconds * out.speedup(r.features, r.threads) / r.steps;
+      const double walls = r.boundary_peak > 0 ? r.boundary_peak : out.boundary_peak(r.features);
+      const double x[3] = {r.features.fluid_mean * r.features.neighbours * r.features.passes,
+                           screening ? r.features.fluid_mean : walls, 1.0};
+      for (size_t c = 0; c < cols.size(); ++c) A(i, c) = x[cols[c]] / y;
+    }
+    const Eigen::VectorXd coef = A.colPivHouseholderQr().solve(b);
+    int worst = -1;
+    for (size_t c = 0; c < cols.size(); ++c)
+      if (coef[c] < 0 && (worst < 0 || coef[c] < coef[worst])) worst = static_cast<int>(c);
+    if (worst >= 0 && cols.size() > 1) {
+      cols.erase(cols.begin() + worst);
+      continue;
+    }
+    double a[3] = {0, 0, 0};
+    for (size_t c = 0; c < cols.size(); ++c) a[cols[c]] = std::max(0.0, coef[c]);
+    k.a_fluid = a[0];
+    (screening ? k.b_fluid : k.b_boundary) = a[1];
+    k.c_step = a[2];
+    return;
+  }
+}
+
 CostModel fit_cost_model(const std::vector<CostObservation>& runs, const CostModel& prior) {
   CostModel out = prior;
-  out.bed_per_flow_column = fit_bed_per_flow_column(runs, prior.bed_per_flow_column);
-  for (int D : {2, 3}) {
+  std::vector<CostObservation> sph;
+  for (const auto& r : runs)
+    if (r.features.model != "screening") sph.push_back(r);
+  out.bed_per_flow_column = fit_bed_per_flow_column(sph, prior.bed_per_flow_column);
+  for (int group : {2, 3, 0}) {  // SPH in 2D, in 3D; 0: the screening rung
     std::vector<const CostObservation*> obs;
-    for (const auto& r : runs)
-      if (r.features.dimensions == D && r.steps > 0 && r.wall_seconds > 0 && r.features.dt0 > 0) obs.push_back(&r);
-    if (obs.size() < 2) continue;
-    CostCoefficients& k = D == 2 ? out.two_d : out.three_d;
-    // Steps: the geometric mean of measured / (duration / dt0), i.e. least squares on log ratio.
-    double log_sum = 0;
-    for (const auto* r : obs) log_sum += std::log(r->steps * r->features.dt0 / r->features.duration);
-    k.step_ratio = std::exp(log_sum / obs.size());
-    // Time per step on one thread, y = wall * speedup / steps, linear in the three columns; rows divided by y
-    // so the fit minimises relative error (a small scene counts as much as a large one).
-    std::vector<int> cols = {0, 1, 2};
-    for (;;) {
-      Eigen::MatrixXd A(obs.size(), cols.size());
-      Eigen::VectorXd b = Eigen::VectorXd::Ones(obs.size());
-      for (size_t i = 0; i < obs.size(); ++i) {
-        const auto& r = *obs[i];
-        const double y = r.wall_seconds * out.speedup(r.features, r.threads) / r.steps;
-        const double walls = r.boundary_peak > 0 ? r.boundary_peak : out.boundary_peak(r.features);
-        const double x[3] = {r.features.fluid_mean * r.features.neighbours * r.features.passes, walls, 1.0};
-        for (size_t c = 0; c < cols.size(); ++c) A(i, c) = x[cols[c]] / y;
-      }
-      const Eigen::VectorXd coef = A.colPivHouseholderQr().solve(b);
-      int worst = -1;
-      for (size_t c = 0; c < cols.size(); ++c)
-        if (coef[c] < 0 && (worst < 0 || coef[c] < coef[worst])) worst = static_cast<int>(c);
-      if (worst >= 0 && cols.size() > 1) {
-        cols.erase(cols.begin() + worst);
-        continue;
-      }
-      double a[3] = {0, 0, 0};
-      for (size_t c = 0; c < cols.size(); ++c) a[cols[c]] = std::max(0.0, coef[c]);
-      k.a_fluid = a[0];
-      k.b_boundary = a[1];
-      k.c_step = a[2];
-      break;
+    for (const auto& r : runs) {
+      const bool screening = r.features.model == "screening";
+      if ((group == 0) != screening || (!screening && r.features.dimensions != group)) continue;
+      if (r.steps > 0 && r.wall_seconds > 0 && r.features.dt0 > 0) obs.push_back(&r);
     }
+    if (obs.size() < 2) continue;
+    fit_group(obs, out, group == 0, group == 0 ? out.screening : group == 2 ? out.two_d : out.three_d);
   }
   return out;
+}
+
+nlohmann::json cost_features_json(const CostFeatures& f) {
+  return {{"model", f.model},
+          {"fluid", f.fluid},
+          {"fluid_mean", f.fluid_mean},
+          {"fluid_peak", f.fluid_peak},
+          {"boundary", f.boundary},
+          {"boundary_fixed", f.boundary_fixed},
+          {"bed", f.bed},
+          {"neighbours", f.neighbours},
+          {"passes", f.passes},
+          {"duration_s", f.duration},
+          {"dt0_s", f.dt0}};
 }
 
 bool cost_observation_from_metrics(const std::string& metrics_json, CostObservation& out) {
@@ -200,6 +269,7 @@ bool cost_observation_from_metrics(const std::string& metrics_json, CostObservat
     return false;
   const auto& c = j["cost_features"];
   try {
+    out.features.model = c.value("model", std::string("sph3d"));  // stored before the screening rung's: SPH
     out.features.dimensions = j.at("dimensions").get<int>();
     out.features.fluid = c.at("fluid").get<double>();
     out.features.fluid_mean = c.at("fluid_mean").get<double>();

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "runout/engine/kernels.hpp"
+#include "runout/scenarios/cost_model.hpp"
 #include "runout/terrain/terrain.hpp"
 #include "run_outputs.hpp"
 #include "run_threads.hpp"
@@ -167,10 +168,10 @@ class ScreeningWatch {
         if (corridor_count_ == 1) first_gone_ = {m.time(), p.x[k] + tm_.origin_x, p.y[k] + tm_.origin_y};
       }
     update_grid(m);
-    std::vector<real> speed = speeds(m);
+    std::vector<real> speed = speeds(m);  // the particles still in, in their order
     double ke = 0, vol = 0;
-    for (size_t k = 0; k < p.size(); ++k)
-      if (!gone_[p.id[k]]) ke += 0.5 * p.volume[k] * speed[k] * speed[k], vol += p.volume[k];
+    for (size_t k = 0, n = 0; k < p.size(); ++k)
+      if (!gone_[p.id[k]]) ke += 0.5 * p.volume[k] * speed[n] * speed[n], vol += p.volume[k], ++n;
     std::sort(speed.begin(), speed.end());
     auto pct = [&](double q) { return speed.empty() ? 0.0 : speed[static_cast<size_t>(q * (speed.size() - 1))]; };
     csv_ << m.time() << ',' << (vol > 0 ? ke / vol : 0.0) << ',' << pct(1.0) << ',' << vol << ',' << gone_volume_
@@ -265,14 +266,24 @@ json centre_metrics(const std::array<double, 3>& s, const std::array<double, 3>&
 // opening's area), entering across the line as rows of particles at the screening spacing, each particle
 // depth x spacing^2, one row whenever the volume due since the last reaches a row's, moving downstream at
 // Q / (depth x width). The volume that entered trails the hydrograph's integral by less than a row.
+// The lanes a hydrograph's line holds at the screening spacing (spread over its whole length).
+size_t inflow_lanes(double length, real spacing) {
+  return std::max<size_t>(1, static_cast<size_t>(std::floor(length / spacing + 1e-6)));
+}
+
+double inflow_line_length(const terrain::TerrainModel& tm) {
+  const auto& line = tm.inflow_line;
+  return std::hypot(line[1][0] - line[0][0], line[1][1] - line[0][1]);
+}
+
 class Inflow {
  public:
   Inflow(const terrain::TerrainModel& tm, const InletSpec<3>& inlet, real dp, real spacing)
       : inlet_(inlet), area_(inlet.opening_area(dp)), spacing_(spacing), depth_(tm.release_depth) {
     const auto& line = tm.inflow_line;
-    const double length = std::hypot(line[1][0] - line[0][0], line[1][1] - line[0][1]);
+    const double length = inflow_line_length(tm);
     length_ = length;
-    lanes_ = std::max<size_t>(1, static_cast<size_t>(std::floor(length / spacing + 1e-6)));
+    lanes_ = inflow_lanes(length, spacing);
     for (size_t k = 0; k < lanes_; ++k) {
       const double a = (k + 0.5) * length / lanes_ / length;  // lanes spread over the whole line
       at_.push_back({line[0][0] + a * (line[1][0] - line[0][0]) - tm.origin_x + 0.5 * spacing * tm.inflow_normal[0],
@@ -384,6 +395,7 @@ json run_metrics(const Scene& scene, const ScreeningSettings& s, const da::Model
   j["dimensions"] = 3;
   j["particles"] = {{"fluid_initial", particles}, {"fluid_final", m.particles().size() - w.gone_count()}};
   j["steps"] = sum.steps;
+  j["cost_features"] = cost_features_json(cost_features(scene));  // what `runout calibrate` fits the screening term on
   j["simulated_time_s"] = sum.simulated_time;
   j["wall_time_s"] = sum.wall_seconds;
   j["particle_steps_per_s"] = sum.particle_steps_per_second;
@@ -432,6 +444,18 @@ json run_metrics(const Scene& scene, const ScreeningSettings& s, const da::Model
 }
 
 }  // namespace
+
+ScreeningParticles screening_particles(const json& scene_json, const terrain::TerrainModel& tm, real spacing) {
+  ScreeningParticles n;
+  if (!tm.inflow_line.empty()) {
+    const double length = inflow_line_length(tm);
+    n.inflow_particle_volume = tm.release_depth * spacing * length / inflow_lanes(length, spacing);
+    return n;
+  }
+  double volume = 0;
+  n.release = release_particles(scene_json, tm, spacing, volume).size();
+  return n;
+}
 
 RunSummary run_screening(const Scene& scene, const RunOptions& opt) {
   RunThreads team;

@@ -53,6 +53,14 @@ bool is_screening(const Scene& scene);
 // (fluid blocks, inlets, extra boundaries), each naming its field.
 void check_scene_model(const nlohmann::json& scene_json, const Scene& scene);
 
+// What the screening run starts with: a block release's particles (its lattice at `spacing` inside
+// release.polygon), or for a hydrograph none, and the volume each particle of its inflow carries.
+struct ScreeningParticles {
+  size_t release = 0;
+  double inflow_particle_volume = 0;  // [m3]; 0 for a block release
+};
+ScreeningParticles screening_particles(const nlohmann::json& scene_json, const terrain::TerrainModel& tm, real spacing);
+
 // Runs a screening scene and writes OUT/metrics.json, OUT/series/run.csv and OUT/rasters as run_scene does.
 RunSummary run_screening(const Scene& scene, const RunOptions& options);
 

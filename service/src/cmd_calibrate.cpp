@@ -70,11 +70,13 @@ int calibrate(const CalibrateArgs& c) {
                 fitted.boundary_peak(r.features), r.steps, r.wall_seconds, ps, es, pf, el);
   }
   auto coef = [](const CostCoefficients& k) {
-    return json{{"step_ratio", k.step_ratio}, {"a_fluid_s", k.a_fluid}, {"b_boundary_s", k.b_boundary}, {"c_step_s", k.c_step}};
+    return json{{"step_ratio", k.step_ratio}, {"a_fluid_s", k.a_fluid}, {"b_boundary_s", k.b_boundary}, {"b_fluid_s", k.b_fluid},
+                {"c_step_s", k.c_step}};
   };
   const json out = {{"runs", runs.size()},
                     {"two_d", coef(fitted.two_d)},
                     {"three_d", coef(fitted.three_d)},
+                    {"screening", coef(fitted.screening)},
                     {"parallel_efficiency", fitted.parallel_efficiency},
                     {"parallel_half_fluid", fitted.parallel_half_fluid},
                     {"bed_per_flow_column", fitted.bed_per_flow_column},

@@ -16,7 +16,7 @@ void Server::Impl::routes_estimate() {
     const CostModel model = CostModel::calibrated();
     const int threads = std::max(1, threads_per_job);
     const CostPrediction p = model.predict(spec.cost, threads);
-    const CostCoefficients& k = spec.cost.dimensions == 2 ? model.two_d : model.three_d;
+    const CostCoefficients& k = model.coefficients(spec.cost);
     send_json(res, 200,
               {{"scene_name", spec.scene_name},
                {"variant", spec.variant},
@@ -34,9 +34,10 @@ void Server::Impl::routes_estimate() {
                {"seconds_estimate", p.seconds},
                {"model",
                 {{"formula", "steps = ceil(step_ratio * duration / dt0); seconds = steps * (a_fluid * fluid_mean * "
-                             "neighbours * passes + b_boundary * boundary_peak + c_step) / speedup; boundary_peak = boundary_fixed "
+                             "neighbours * passes + b_fluid * fluid_mean + b_boundary * boundary_peak + c_step) / speedup; boundary_peak = boundary_fixed "
                              "+ min(bed, bed_per_flow_column * fluid_peak^((D-1)/D)); speedup = 1 + "
                              "parallel_efficiency * fluid_mean / (fluid_mean + parallel_half_fluid) * (threads - 1)"},
+                 {"flow_model", spec.cost.model},
                  {"duration_s", spec.cost.duration},
                  {"dt_s", spec.cost.dt0},
                  {"fluid_mean", spec.cost.fluid_mean},
@@ -49,6 +50,7 @@ void Server::Impl::routes_estimate() {
                  {"bed_per_flow_column", model.bed_per_flow_column},
                  {"step_ratio", k.step_ratio},
                  {"a_fluid_s", k.a_fluid},
+                 {"b_fluid_s", k.b_fluid},
                  {"b_boundary_s", k.b_boundary},
                  {"c_step_s", k.c_step},
                  {"threads", threads},

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,7 @@
 
 #include "runout/scenarios/cost_model.hpp"
 #include "runout/scenarios/scene.hpp"
+#include "runout/terrain/terrain.hpp"
 
 using namespace runout;
 using json = nlohmann::json;
@@ -240,6 +242,75 @@ TEST(CostModel, FitTakesTheBedPeakFromTheRuns) {
   EXPECT_EQ(fit_cost_model(runs, prior).bed_per_flow_column, 1);
 }
 
+// The shipped flume at the screening rung: its release, 0.5 m x 0.3 m, holds 50 x 30 lattice points at the
+// scene's spacing of 0.01 m; its kernel is 1.5 (0.5 / 0.01)^1/2 spacings (the sqrt rule, docs/scene-format.md);
+// no wall particles; one pass; the step of a flow at the speed sqrt(2 g E) of the corridor's energy line.
+TEST(CostFeatures, TheScreeningRungCountsItsOwnParticlesAndStep) {
+  const std::string dir = std::string(RUNOUT_SOURCE_DIR) + "/scenarios/flume";
+  json j = json::parse(std::ifstream(dir + "/flume.json"));
+  j["model"] = "screening";
+  j.erase("structures");  // candidates a sweep chooses among (they overlap): layout C0
+  const Scene scene = parse_scene(j.dump(), dir);
+  const CostFeatures f = cost_features(scene);
+  EXPECT_EQ(f.model, "screening");
+  EXPECT_EQ(f.fluid, 50 * 30);
+  EXPECT_EQ(f.fluid_mean, f.fluid);  // a block release: no inflow
+  EXPECT_EQ(f.fluid_peak, f.fluid);
+  EXPECT_EQ(f.boundary, 0);
+  EXPECT_EQ(f.passes, 1);
+  const double ratio = 1.5 * std::sqrt(0.5 / 0.01);
+  EXPECT_NEAR(f.neighbours, ratio * ratio, 1e-9);
+  const double E = scene.terrain->max_energy_height;
+  ASSERT_GT(E, 0.235);  // at least the release's depth
+  EXPECT_NEAR(f.dt0, 0.2 * ratio * 0.01 / std::sqrt(2 * 9.81 * E), 1e-9 * f.dt0);
+  EXPECT_DOUBLE_EQ(f.duration, 3.5);
+  // Its coefficients are the screening rung's, not the 3D ones its dimensions would pick.
+  CostModel m;
+  m.three_d = {1, 1, 1, 1};
+  m.screening = {2, 0, 0, 1e-3};
+  const CostPrediction p = m.predict(f, 1);
+  EXPECT_EQ(p.steps, std::ceil(2 * f.duration / f.dt0));
+  EXPECT_NEAR(p.seconds_per_step, 1e-3, 1e-15);
+}
+
+// The screening rung's time per step has a term per flow particle (b_fluid) in place of the walls': runs made
+// by a known model come back to it, and the 3D coefficients are left as the prior's.
+TEST(CostModel, FitRecoversTheScreeningRungsOwnCoefficients) {
+  CostModel truth;
+  truth.screening = {0.4, 6e-8, 0, 2e-5, 7e-7};
+  std::vector<CostObservation> runs;
+  for (double fluid : {300.0, 1500.0, 9000.0})
+    for (double neighbours : {2.25, 11.25, 112.5}) {
+      CostObservation o;
+      o.features.model = "screening";
+      o.features.dimensions = 3;
+      o.features.fluid = o.features.fluid_mean = o.features.fluid_peak = fluid;
+      o.features.neighbours = neighbours;
+      o.features.duration = 100;
+      o.features.dt0 = 1e-2;
+      const CostPrediction p = truth.predict(o.features, 1);
+      o.steps = p.steps;
+      o.wall_seconds = p.seconds;
+      runs.push_back(o);
+    }
+  CostModel prior;
+  prior.three_d = {9, 9e-9, 9e-9, 9e-9};
+  const CostModel fit = fit_cost_model(runs, prior);
+  EXPECT_NEAR(fit.screening.step_ratio, 0.4, 1e-3 * 0.4);
+  EXPECT_NEAR(fit.screening.a_fluid, 6e-8, 1e-6 * 6e-8);
+  EXPECT_NEAR(fit.screening.b_fluid, 7e-7, 1e-6 * 7e-7);
+  EXPECT_NEAR(fit.screening.c_step, 2e-5, 1e-6 * 2e-5);
+  EXPECT_EQ(fit.three_d.step_ratio, 9);
+  EXPECT_EQ(fit.three_d.a_fluid, 9e-9);
+  // Stored and read back, the features keep their model.
+  json m = {{"status", "completed"}, {"dimensions", 3}, {"steps", runs[0].steps}, {"wall_time_s", runs[0].wall_seconds},
+            {"threads", 1}, {"cost_features", cost_features_json(runs[0].features)}};
+  CostObservation o;
+  ASSERT_TRUE(cost_observation_from_metrics(m.dump(), o));
+  EXPECT_EQ(o.features.model, "screening");
+  EXPECT_EQ(o.features.neighbours, runs[0].features.neighbours);
+}
+
 TEST(CostModel, ObservationFromStoredMetrics) {
   const json m = {{"status", "completed"}, {"dimensions", 3}, {"steps", 1234}, {"wall_time_s", 56.5}, {"threads", 2},
                   {"scene", "flume/C0"},
@@ -249,6 +320,7 @@ TEST(CostModel, ObservationFromStoredMetrics) {
   CostObservation o;
   ASSERT_TRUE(cost_observation_from_metrics(m.dump(), o));
   EXPECT_EQ(o.features.dimensions, 3);
+  EXPECT_EQ(o.features.model, "sph3d");  // stored before the screening rung's features: SPH
   EXPECT_EQ(o.features.fluid_mean, 310);
   EXPECT_EQ(o.features.boundary, 12000);
   EXPECT_EQ(o.steps, 1234);

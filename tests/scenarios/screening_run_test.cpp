@@ -258,6 +258,22 @@ TEST(ScreeningRun, FlowPastTheDemsEdgeIsOutflowNotACorridorTooNarrow) {
   EXPECT_EQ(m["terrain"]["corridor_outflow"]["particles"].get<long>(), 0);
   // More than the corridor's limit (the default max_outflow) left at the DEM's edge: the old rule failed this run.
   EXPECT_GT(m["mass"]["outflow_kg"].get<double>(), terrain::CorridorSpec{}.max_outflow * 2000 * v);
+  // The particles still in after some left: the kinetic energy per mass of the series is theirs, so at most half
+  // the square of their fastest speed (until 2026-12-07 it was summed with the speeds of the particles before
+  // them in the order, read past the list's end once a particle had left: 2 891 J/kg at 59 m/s on Alr).
+  std::ifstream csv(dir / "out" / "series" / "run.csv");
+  std::string line;
+  std::getline(csv, line);
+  int rows = 0, after_outflow = 0;
+  while (std::getline(csv, line)) {
+    double t, ke, vmax, fluid, outflow;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf", &t, &ke, &vmax, &fluid, &outflow), 5) << line;
+    ++rows, after_outflow += outflow > 0;
+    EXPECT_GE(ke, 0) << "t = " << t;
+    EXPECT_LE(ke, 0.5 * vmax * vmax * (1 + 1e-12)) << "t = " << t;
+  }
+  EXPECT_GT(after_outflow, 0);
+  EXPECT_GT(rows, after_outflow);
 }
 
 // (b') declared after (b)'s run, before its own: a nearly frictionless flow (mu 0.05) levels behind the dam as

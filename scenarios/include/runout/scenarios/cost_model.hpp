@@ -26,14 +26,29 @@
 // speed-up saturating in the fluid count; terrain flows of a hundred or more already gain 1.5x (their wall
 // contact is much of the work). The coefficients are fitted by least squares on relative error
 // from stored one-thread runs (`runout calibrate`); e and N_half come from one- against two-thread runs.
+//
+// The screening rung (a scene's "model": "screening", thickness-integrated SPH: docs/design.md) has coefficients
+// of its own, on features of its own: fluid is its particles at screening.spacing (the release's lattice; a
+// hydrograph's arrive over the run, counted in fluid_mean and fluid_peak as an inlet's), neighbours
+// (h_k0 / spacing)^2, one pass, no wall particles (its bed is a grid), and
+//
+//   dt0            = cfl h_k0 / sqrt(2 g E)
+//
+// with E the corridor's energy-line height above the ground at most (terrain max_energy_height): the step of
+// the fastest flow the corridor allows, whose steps the run's CFL limit takes. Its time per step has a term per
+// flow particle besides the pair term (b_fluid: the bed lookup, friction and curvature each particle does),
+// which the 3D rungs' fit leaves at 0.
 #include <string>
 #include <vector>
+
+#include <nlohmann/json_fwd.hpp>
 
 #include "runout/scenarios/scene.hpp"
 
 namespace runout {
 
 struct CostFeatures {
+  std::string model = "sph3d";  // the scene's flow model ("model": sph3d, or screening)
   int dimensions = 3;
   double fluid = 0;        // flow particles at the start
   double fluid_mean = 0;   // averaged over the run (with inlets' inflow)
@@ -53,6 +68,7 @@ struct CostCoefficients {
   double a_fluid = 0;       // [s] per fluid particle x (h/dp)^D x pass, one thread
   double b_boundary = 0;    // [s] per boundary particle, one thread
   double c_step = 0;        // [s] per step
+  double b_fluid = 0;       // [s] per flow particle (the screening rung; 0 for SPH, whose is in a_fluid's term)
 };
 
 struct CostPrediction {
@@ -67,11 +83,14 @@ struct CostPrediction {
 
 struct CostModel {
   CostCoefficients two_d, three_d;
+  CostCoefficients screening;           // the screening rung's, on its own features (above)
   double parallel_efficiency = 0.9;     // e: of each thread after the first, for a large run
   double parallel_half_fluid = 380;     // N_half: the fluid count at which a thread gives half of e
   double bed_per_flow_column = 0;       // k_bed: bed particles alive at most per fluid_peak^((D-1)/D)
   double speedup(const CostFeatures& f, int threads) const;
   double boundary_peak(const CostFeatures& f) const;
+  // The coefficients of the features' model: screening, or SPH in their dimension.
+  const CostCoefficients& coefficients(const CostFeatures& f) const;
   // The coefficients fitted on this project's measurements (the figures and the command: docs/tradeoff.md).
   static CostModel calibrated();
   CostPrediction predict(const CostFeatures& f, int threads) const;
@@ -87,11 +106,14 @@ struct CostObservation {
   std::string label;
 };
 
-// Least squares on relative error, per dimension (dimensions with fewer than two observations keep `prior`'s
-// coefficients); a negative coefficient is dropped and the rest refitted. The time per step is fitted on the
+// Least squares on relative error, per dimension and for the screening rung (a group with fewer than two
+// observations keeps `prior`'s coefficients); a negative coefficient is dropped and the rest refitted. The time per step is fitted on the
 // measured boundary peak where a run has one; k_bed is the geometric mean of the measured bed peak over
 // fluid_peak^((D-1)/D) on the runs with a bed (the prior's without one).
 CostModel fit_cost_model(const std::vector<CostObservation>& runs, const CostModel& prior = CostModel::calibrated());
+
+// The features as metrics.json stores them ("cost_features"), read back by cost_observation_from_metrics.
+nlohmann::json cost_features_json(const CostFeatures& f);
 
 // The features and measured cost of a stored run, from its metrics.json text ("cost_features", "steps",
 // "wall_time_s", "threads"); false when the run lacks them (stored before the cost model existed).
