@@ -95,7 +95,8 @@ try {
   equal([m.fluid_mean, m.boundary], [100, 168], 'the cost model sees the built scene (no inlet: fluid_mean = fluid)');
   equal(e.json.steps_estimate, Math.ceil(m.step_ratio * m.duration_s / m.dt_s), 'steps = ceil(step_ratio duration / dt0)');
   equal([m.boundary_fixed, m.bed, e.json.particles.boundary_peak_estimate], [168, 0, 168], 'no terrain: every wall is fixed and alive');
-  const perStep = m.a_fluid_s * m.fluid_mean * m.neighbours * m.passes + m.b_boundary_s * e.json.particles.boundary_peak_estimate + m.c_step_s;
+  equal(m.flow_model, 'sph3d', 'a 3D scene is priced by the SPH coefficients');
+  const perStep = m.a_fluid_s * m.fluid_mean * m.neighbours * m.passes + m.b_fluid_s * m.fluid_mean + m.b_boundary_s * e.json.particles.boundary_peak_estimate + m.c_step_s;
   const seconds = e.json.steps_estimate * perStep;  // one thread
   check(Math.abs(e.json.seconds_estimate - seconds) <= 1e-9 * seconds, `seconds = steps x per-step cost (${e.json.seconds_estimate} vs ${seconds})`);
   equal((await call(s, 'GET', '/jobs')).json.total, 0, 'an estimate writes no job');
