@@ -426,6 +426,30 @@ TEST_F(Api, AnEnsembleSweepRunsEveryLayoutAtEveryMemberAndIsSummarised) {
   EXPECT_TRUE(e.at("layouts_detail").contains("A"));
 }
 
+// A screening job is priced by the screening rung's cost model (docs/tradeoff.md, "The screening rung's cost"),
+// not as the 3D run its scene also describes: the shipped flume's release, 0.5 m x 0.3 m at the spacing 0.01 m,
+// is 50 x 30 screening particles, and the screening rung, the ladder's cheap rung, is estimated below the 3D
+// standard rung (measured on one thread: 5.6 s against 114 s for C6 at standard, docs/tradeoff.md).
+TEST_F(Api, AScreeningJobIsPricedAsTheScreeningRungNotAsA3DRun) {
+  const fs::path scenes = dir_ / "scenes", flume = fs::path(RUNOUT_SOURCE_DIR) / "scenarios" / "flume";
+  fs::create_directories(scenes);
+  for (const std::string ext : {".asc", ".prj"}) fs::copy_file(flume / ("flume_dem" + ext), scenes / ("flume_dem" + ext));
+  start({"--workers", "0", "--threads-per-job", "1", "--scene-dir", scenes.string()});
+  json base = json::parse(std::ifstream(flume / "flume.json"));
+  base["terrain"]["dem"] = "flume_dem.asc";
+  auto estimate = [&](const std::string& fidelity) {
+    return post("/estimate", {{"base", base}, {"structures", json::array()}, {"fidelity", fidelity}});
+  };
+  const Reply screening = estimate("screening"), standard = estimate("standard");
+  ASSERT_EQ(screening.status, 200) << screening.text.substr(0, 300);
+  ASSERT_EQ(standard.status, 200) << standard.text.substr(0, 300);
+  EXPECT_EQ(screening.body.at("model").at("flow_model"), "screening");
+  EXPECT_EQ(screening.body.at("model").at("fluid_mean"), 50 * 30);
+  EXPECT_EQ(screening.body.at("particles").at("boundary_peak_estimate"), 0);  // its bed is a grid
+  EXPECT_EQ(standard.body.at("model").at("flow_model"), "sph3d");
+  EXPECT_LT(screening.body.at("seconds_estimate").get<double>(), standard.body.at("seconds_estimate").get<double>());
+}
+
 // A multi-fidelity study as a sweep (issue 45 item 3, docs/service.md "Studies"): the members are its screening
 // stage; once they have ended, the layouts that can still be best run at the detailed rung at the ensemble's
 // median member, as `runout study` runs them. The plan is in the store from the submission on: a service
