@@ -262,10 +262,6 @@ json centre_metrics(const std::array<double, 3>& s, const std::array<double, 3>&
           {"travel_angle_deg", travel > 0 ? std::atan2(drop, travel) * 180 / M_PI : 0.0}};
 }
 
-// A hydrograph release (release.hydrograph): the discharge Q(t) of the 3D run's inlet (its speed table times its
-// opening's area), entering across the line as rows of particles at the screening spacing, each particle
-// depth x spacing^2, one row whenever the volume due since the last reaches a row's, moving downstream at
-// Q / (depth x width). The volume that entered trails the hydrograph's integral by less than a row.
 // The lanes a hydrograph's line holds at the screening spacing (spread over its whole length).
 size_t inflow_lanes(double length, real spacing) {
   return std::max<size_t>(1, static_cast<size_t>(std::floor(length / spacing + 1e-6)));
@@ -276,6 +272,10 @@ double inflow_line_length(const terrain::TerrainModel& tm) {
   return std::hypot(line[1][0] - line[0][0], line[1][1] - line[0][1]);
 }
 
+// A hydrograph release (release.hydrograph): the discharge Q(t) of the 3D run's inlet (its speed table times its
+// opening's area), entering across the line as rows of particles at the screening spacing, each particle
+// depth x spacing^2, one row whenever the volume due since the last reaches a row's, moving downstream at
+// Q / (depth x width). The volume that entered trails the hydrograph's integral by less than a row.
 class Inflow {
  public:
   Inflow(const terrain::TerrainModel& tm, const InletSpec<3>& inlet, real dp, real spacing)
