@@ -790,7 +790,6 @@ json settings_metrics(const Solver<D>& solver) {
           {"boundary_pressure", boundary_pressure_names()[static_cast<size_t>(cfg.boundary_pressure)]}};
 }
 
-// What the cost model predicts from (docs/tradeoff.md): stored with the run so `runout calibrate` can refit.
 // Particle counts a run reports: at the start, and the leaked ones when it failed on a leak.
 // c0 against the fastest flow: weak compressibility needs Mach <= 0.1, and the acoustic step limit scales as 1/c0,
 // so a run whose Mach stays far under 0.1 could take fewer steps with the c0 that keeps it at 0.1.
@@ -843,7 +842,7 @@ json run_metrics(const Scene& scene, const Solver<D>& solver, const RunSummary& 
   m["simulated_time_s"] = sum.simulated_time;
   m["wall_time_s"] = sum.wall_seconds;
   m["particle_steps_per_s"] = sum.particle_steps_per_second;
-  m["cost_features"] = cost_features_json(cost_features(scene));
+  m["cost_features"] = cost_features_json(cost_features(scene));  // so `runout calibrate` can refit (docs/tradeoff.md)
   m["dt"] = {{"min_s", solver.min_dt_seen() < 1e299 ? solver.min_dt_seen() : 0.0}, {"last_s", solver.last_step().dt}};
   m["max_mach"] = solver.max_mach();
   if (solver.max_mach() > 0.1)
