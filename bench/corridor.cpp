@@ -50,7 +50,7 @@ Row measure(json scene, const std::string& dem, int steps, int threads) {
   const auto t0 = std::chrono::steady_clock::now();
   Scene s = parse_scene(scene.dump());
   r.build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  r.cells = s.terrain->dem.values.size();
+  r.cells = s.terrain->dem->values.size();
   r.fraction = s.terrain->modelled_fraction;
   Solver<3> solver(std::get<SceneSetup<3>>(s.setup));
   r.fluid = solver.fluid().size();

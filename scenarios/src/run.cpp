@@ -343,7 +343,7 @@ json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::Inund
   terrain::write_depth_map_png((dir / "rasters" / "max_depth.png").string(), g.terrain(), g.max_depth(),
                                out.inundation_threshold, map_overlays(tm));
   json t;
-  t["crs"] = terrain::crs_name(tm.dem.crs_wkt);
+  t["crs"] = terrain::crs_name(tm.dem->crs_wkt);
   t["local_origin_m"] = {tm.origin_x, tm.origin_y};
   t["corridor_area_m2"] = tm.corridor_area;
   t["modelled_fraction"] = tm.modelled_fraction;
@@ -356,7 +356,7 @@ json write_terrain_outputs(const terrain::TerrainModel& tm, const terrain::Inund
       retained.push_back(st.value("retained_volume_m3", std::nan("")));
       upstream.push_back(st.value("upstream_volume_m3", std::nan("")));
     }
-    terrain::write_structure_layers((dir / "rasters" / "hazard.gpkg").string(), tm.structures, tm.dem.crs_wkt, retained,
+    terrain::write_structure_layers((dir / "rasters" / "hazard.gpkg").string(), tm.structures, tm.dem->crs_wkt, retained,
                                     upstream);
   }
   t["inundation"] = inundation_metrics(tm, g, out);

@@ -40,7 +40,7 @@ da::Bed terrain_bed(const terrain::TerrainModel& tm, real curvature_scale) {
     for (int i = 0; i < nx; ++i) {
       double v = bed.at(i, j);
       if (!tm.wall_top.values.empty() && !std::isnan(tm.wall_top.at(i, j))) v = std::max<double>(v, tm.wall_top.at(i, j));
-      if (std::isnan(v)) v = tm.dem.sample(bed.cx(i), bed.cy(j));
+      if (std::isnan(v)) v = tm.dem->sample(bed.cx(i), bed.cy(j));
       z[static_cast<size_t>(ny - 1 - j) * nx + i] = static_cast<real>(v);
     }
   // Nodes with no DEM either (nodata, past the DEM's edge) take their neighbours' mean, pass by pass.

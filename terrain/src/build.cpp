@@ -159,18 +159,18 @@ TerrainModel build_terrain(const TerrainSpec& given, double dp, long max_particl
   if (!(dp > 0)) throw TerrainError("dp", "must be > 0");
   TerrainModel m;
   m.dp = dp;
-  m.dem = load_dem(given.dem_path, given.dem);
+  m.dem = load_dem_shared(given.dem_path, given.dem);
   TerrainSpec spec = given;
   const bool inflow = !spec.release.inflow_line.empty();
-  if (inflow) spec.release.polygon = inflow_strip(spec.release, m.dem, m.inflow_normal);
-  const double release_area = check_inputs(spec, m.dem);
-  const std::vector<detail::Footprint> feet = detail::footprints(spec, m.dem, dp);
+  if (inflow) spec.release.polygon = inflow_strip(spec.release, *m.dem, m.inflow_normal);
+  const double release_area = check_inputs(spec, *m.dem);
+  const std::vector<detail::Footprint> feet = detail::footprints(spec, *m.dem, dp);
 
   double release_depth = spec.release.depth;
   if (!(release_depth > 0)) release_depth = spec.release.volume / release_area;
   std::vector<char> corridor = detail::corridor_cells(spec, m.dem, feet, release_depth, dp, m.max_energy_height);
-  const detail::CorridorBox box = detail::corridor_box(m.dem, corridor);
-  m.corridor_area = box.kept * m.dem.cell_area();
+  const detail::CorridorBox box = detail::corridor_box(*m.dem, corridor);
+  m.corridor_area = box.kept * m.dem->cell_area();
   m.max_corridor_outflow = spec.corridor.max_outflow;
   m.modelled_fraction = static_cast<double>(box.kept) / static_cast<double>(box.valid);
   detail::lay_bed(m, corridor, box, spec.layers, max_particles);

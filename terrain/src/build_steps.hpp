@@ -4,6 +4,7 @@
 // boundary and release particles (particles.cpp). Private to the terrain library.
 #include <cstddef>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -31,9 +32,11 @@ struct Footprint {
 std::vector<Footprint> footprints(const TerrainSpec& spec, const Grid& dem, double dp);
 
 // DEM cells the model covers: the energy-line reach (buffered) or the corridor polygon, plus every
-// structure's footprint. Sets max_energy_height (at least the release depth).
-std::vector<char> corridor_cells(const TerrainSpec& spec, const Grid& dem, const std::vector<Footprint>& feet,
-                                 double release_depth, double dp, double& max_energy_height);
+// structure's footprint. Sets max_energy_height (at least the release depth). The reach and its buffer are
+// kept for the last few (DEM, release, corridor) this process built (kept_reach_stats).
+std::vector<char> corridor_cells(const TerrainSpec& spec, const std::shared_ptr<const Grid>& dem,
+                                 const std::vector<Footprint>& feet, double release_depth, double dp,
+                                 double& max_energy_height);
 
 // The corridor's bounding box in DEM cells, and how many cells it keeps of those with data.
 struct CorridorBox {

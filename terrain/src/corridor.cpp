@@ -1,12 +1,17 @@
 // The corridor: the DEM cells the flow can reach, and the bed grid at dp over their bounding box.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
+#include <list>
+#include <mutex>
 #include <queue>
 
 #include "build_steps.hpp"
 
-namespace runout::terrain::detail {
+namespace runout::terrain {
+
+namespace detail {
 namespace {
 
 // Energy-line reach: the highest "energy head" any path from the release can carry to a cell, where the
@@ -119,22 +124,105 @@ void add_footprint_cells(const Grid& dem, const std::vector<Footprint>& feet, st
   }
 }
 
-}  // namespace
+// The reach (buffered) or the corridor polygon, before the structures' footprints: a function of the DEM, the
+// release, the corridor settings and dp only. The Dijkstra over the whole DEM was two thirds of a catchment's
+// build (docs/performance.md, "Estimates"), and every layout of a study, every estimate and every check of one
+// catchment asks for the same one.
+struct Reach {
+  std::vector<char> cells;
+  double max_energy_height = 0.0;
+};
 
-std::vector<char> corridor_cells(const TerrainSpec& spec, const Grid& dem, const std::vector<Footprint>& feet,
-                                 double release_depth, double dp, double& max_energy_height) {
+Reach compute_reach(const TerrainSpec& spec, const Grid& dem, double release_depth, double dp) {
+  Reach r;
   // The energy-line reach is computed even when a polygon sets the corridor: its energy height gives the
   // speed scale for the default speed of sound.
-  std::vector<char> corridor = release_reach(spec.release, spec.corridor, dem, release_depth, max_energy_height);
-  max_energy_height = std::max(max_energy_height, release_depth);
+  r.cells = release_reach(spec.release, spec.corridor, dem, release_depth, r.max_energy_height);
+  r.max_energy_height = std::max(r.max_energy_height, release_depth);
   if (spec.corridor.polygon.empty()) {
-    dilate(dem, corridor, spec.corridor.buffer_m > 0 ? spec.corridor.buffer_m : std::max(20.0, 10.0 * dp));
+    dilate(dem, r.cells, spec.corridor.buffer_m > 0 ? spec.corridor.buffer_m : std::max(20.0, 10.0 * dp));
   } else {
     for (int j = 0; j < dem.ny; ++j)
       for (int i = 0; i < dem.nx; ++i)
-        corridor[static_cast<size_t>(j) * dem.nx + i] = inside_polygon(spec.corridor.polygon, dem.cx(i), dem.cy(j));
+        r.cells[static_cast<size_t>(j) * dem.nx + i] = inside_polygon(spec.corridor.polygon, dem.cx(i), dem.cy(j));
   }
-  add_footprint_cells(dem, feet, corridor);
+  return r;
+}
+
+// What a reach is computed from, besides the DEM: every number at full precision.
+std::string reach_key(const TerrainSpec& spec, double release_depth, double dp) {
+  std::string key;
+  char buf[32];
+  auto add = [&](double v) {
+    std::snprintf(buf, sizeof buf, "%.17g,", v);
+    key += buf;
+  };
+  for (const auto& p : spec.release.polygon) add(p[0]), add(p[1]);
+  key += "|";
+  for (const auto& p : spec.corridor.polygon) add(p[0]), add(p[1]);
+  key += "|";
+  for (double v : {release_depth, dp, spec.corridor.travel_angle_deg, spec.corridor.buffer_m}) add(v);
+  return key;
+}
+
+// The last few reaches, most recently used first. An entry holds its DEM, so the grid's address it is found
+// by cannot be another grid's while the entry lives; a DEM read again after load_dem's keep dropped it is a
+// new grid and misses.
+struct KeptReaches {
+  static constexpr size_t kEntries = 8;
+  static constexpr size_t kBytes = size_t{128} << 20;
+  struct Entry {
+    std::shared_ptr<const Grid> dem;
+    std::string key;
+    std::shared_ptr<const Reach> reach;
+  };
+  std::mutex mutex;
+  std::list<Entry> entries;
+  KeptReachStats stats;
+};
+
+KeptReaches& kept_reaches() {
+  static KeptReaches k;
+  return k;
+}
+
+std::shared_ptr<const Reach> reach_of(const TerrainSpec& spec, const std::shared_ptr<const Grid>& dem,
+                                      double release_depth, double dp) {
+  KeptReaches& k = kept_reaches();
+  const std::string key = reach_key(spec, release_depth, dp);
+  {
+    std::lock_guard<std::mutex> lock(k.mutex);
+    for (auto it = k.entries.begin(); it != k.entries.end(); ++it) {
+      if (it->dem != dem || it->key != key) continue;
+      ++k.stats.hits;
+      k.entries.splice(k.entries.begin(), k.entries, it);
+      return k.entries.front().reach;
+    }
+    ++k.stats.misses;
+  }
+  auto reach = std::make_shared<const Reach>(compute_reach(spec, *dem, release_depth, dp));
+  if (reach->cells.size() > KeptReaches::kBytes) return reach;
+  std::lock_guard<std::mutex> lock(k.mutex);
+  k.entries.push_front({dem, key, reach});
+  size_t bytes = 0;
+  for (auto it = k.entries.begin(); it != k.entries.end();) {
+    bytes += it->reach->cells.size();
+    const bool over = bytes > KeptReaches::kBytes || std::distance(k.entries.begin(), it) >= static_cast<long>(KeptReaches::kEntries);
+    it = over ? k.entries.erase(it) : std::next(it);
+  }
+  k.stats.kept = k.entries.size();
+  return reach;
+}
+
+}  // namespace
+
+std::vector<char> corridor_cells(const TerrainSpec& spec, const std::shared_ptr<const Grid>& dem,
+                                 const std::vector<Footprint>& feet, double release_depth, double dp,
+                                 double& max_energy_height) {
+  const std::shared_ptr<const Reach> reach = reach_of(spec, dem, release_depth, dp);
+  max_energy_height = reach->max_energy_height;
+  std::vector<char> corridor = reach->cells;
+  add_footprint_cells(*dem, feet, corridor);
   return corridor;
 }
 
@@ -159,7 +247,7 @@ CorridorBox corridor_box(const Grid& dem, std::vector<char>& corridor) {
 
 void lay_bed(TerrainModel& m, const std::vector<char>& corridor, const CorridorBox& box, int layers,
              long max_particles) {
-  const Grid& dem = m.dem;
+  const Grid& dem = *m.dem;
   const double dp = m.dp;
   const double bx0 = dem.x0 + box.i0 * dem.dx, bx1 = dem.x0 + (box.i1 + 1) * dem.dx;
   const double by0 = dem.y0 - box.j0 * dem.dy, by1 = dem.y0 - (box.j1 + 1) * dem.dy;  // north, south edges
@@ -194,4 +282,12 @@ void lay_bed(TerrainModel& m, const std::vector<char>& corridor, const CorridorB
   m.bed = m.original;
 }
 
-}  // namespace runout::terrain::detail
+}  // namespace detail
+
+KeptReachStats kept_reach_stats() {
+  detail::KeptReaches& k = detail::kept_reaches();
+  std::lock_guard<std::mutex> lock(k.mutex);
+  return k.stats;
+}
+
+}  // namespace runout::terrain

@@ -2,7 +2,7 @@
 // The grids load_dem made, kept by what they were made from (raster.cpp's content key: the SHA-256 of every
 // file GDAL reads for the DEM, and the options), so a service that estimates or validates many jobs on one
 // DEM warps it once. Bounded by bytes, the least recently used grid out first; thread-safe.
-#include <optional>
+#include <memory>
 #include <string>
 
 #include "runout/terrain/raster.hpp"
@@ -13,8 +13,8 @@ namespace runout::terrain::detail {
 // service holds a few DEMs at once.
 constexpr size_t kDemCacheBytes = size_t{256} << 20;
 
-std::optional<Grid> cached_dem(const std::string& key);
-// Keeps a copy of `grid` under `key` (a grid larger than the bound is not kept).
-void keep_dem(const std::string& key, const Grid& grid);
+std::shared_ptr<const Grid> cached_dem(const std::string& key);
+// Keeps `grid` under `key` (a grid larger than the bound is not kept).
+void keep_dem(const std::string& key, std::shared_ptr<const Grid> grid);
 
 }  // namespace runout::terrain::detail

@@ -8,7 +8,7 @@ namespace runout::terrain {
 
 InundationGrid::InundationGrid(const TerrainModel& model)
     : origin_x_(model.origin_x), origin_y_(model.origin_y), dp_(model.dp) {
-  const Grid& dem = model.dem;
+  const Grid& dem = *model.dem;
   const Grid& bed = model.bed;
   const int i0 = std::max(0, static_cast<int>(std::floor((bed.x0 - dem.x0) / dem.dx + 1e-9)));
   const int i1 = std::min(dem.nx, static_cast<int>(std::ceil((bed.x1() - dem.x0) / dem.dx - 1e-9)));

@@ -397,7 +397,9 @@ Grid require_data(Grid g, const std::string& path) {
 
 }  // namespace
 
-Grid load_dem(const std::string& path, const DemOptions& options) {
+Grid load_dem(const std::string& path, const DemOptions& options) { return *load_dem_shared(path, options); }
+
+std::shared_ptr<const Grid> load_dem_shared(const std::string& path, const DemOptions& options) {
   ensure_gdal();
   QuietErrors quiet;
 
@@ -430,10 +432,11 @@ Grid load_dem(const std::string& path, const DemOptions& options) {
 
   const std::string key = dem_content_key(src.get(), options);
   if (!key.empty())
-    if (std::optional<Grid> kept = detail::cached_dem(key)) return std::move(*kept);
-  Grid g = !reproject && !resample
-               ? require_data(read_band1(src.get(), gt, srs_to_wkt(*src_srs), path), path)
-               : require_data(warp_band1(src.get(), target ? *target : *src_srs, options.resolution, path), path);
+    if (std::shared_ptr<const Grid> kept = detail::cached_dem(key)) return kept;
+  auto g = std::make_shared<const Grid>(
+      !reproject && !resample
+          ? require_data(read_band1(src.get(), gt, srs_to_wkt(*src_srs), path), path)
+          : require_data(warp_band1(src.get(), target ? *target : *src_srs, options.resolution, path), path));
   if (!key.empty()) detail::keep_dem(key, g);
   return g;
 }

@@ -37,8 +37,8 @@ struct TempDir {
 // local (i + 0.5, j + 0.5) covers exactly one cell.
 TerrainModel flat_model() {
   TerrainModel m;
-  m.dem = Grid(10, 10, 600000, 4000010, 1, 1, crs_wkt_from("EPSG:32616"), 100.0f);
-  m.bed = m.dem;
+  m.dem = std::make_shared<const Grid>(10, 10, 600000, 4000010, 1, 1, crs_wkt_from("EPSG:32616"), 100.0f);
+  m.bed = *m.dem;
   m.origin_x = 600000;
   m.origin_y = 4000000;
   m.dp = 1.0;

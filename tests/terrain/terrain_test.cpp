@@ -220,6 +220,38 @@ TEST(TerrainBuild, TravelAngleStopsTheCorridorWhereTheEnergyLineMeetsTheGround) 
   EXPECT_LT(xmax, reach + 2.0 + 1.5);
 }
 
+// The corridor's reach is kept per (DEM, release, corridor, dp): a second build of one scene takes it from the
+// keep and is the same model; another travel angle, or the DEM's file changed in place, is computed afresh.
+TEST(TerrainBuild, TheReachIsKeptForTheSameDemReleaseAndCorridorOnly) {
+  TempDir tmp;
+  Valley v;
+  const std::string dem = (tmp.path / "kept.tif").string();
+  write_geotiff(dem, v.grid());
+  const TerrainSpec spec = base_spec(v, dem);
+  const KeptReachStats s0 = kept_reach_stats();
+  const TerrainModel a = build_terrain(spec, 0.5), b = build_terrain(spec, 0.5);
+  const KeptReachStats s1 = kept_reach_stats();
+  EXPECT_EQ(s1.misses - s0.misses, 1);
+  EXPECT_EQ(s1.hits - s0.hits, 1);
+  EXPECT_EQ(all_wall_particles(a), all_wall_particles(b));
+  EXPECT_EQ(a.fluid.size(), b.fluid.size());
+  EXPECT_EQ(a.max_energy_height, b.max_energy_height);
+  EXPECT_EQ(a.corridor_area, b.corridor_area);
+
+  TerrainSpec steeper = spec;
+  steeper.corridor.travel_angle_deg = 20.0;  // a shorter reach
+  const TerrainModel c = build_terrain(steeper, 0.5);
+  EXPECT_EQ(kept_reach_stats().misses - s1.misses, 1);
+  EXPECT_LT(c.corridor_area, a.corridor_area);
+
+  Valley flatter = v;
+  flatter.s = 0.1;  // the reach stops inside the valley (TravelAngleStops...)
+  write_geotiff(dem, flatter.grid());
+  const TerrainModel d = build_terrain(spec, 0.5);
+  EXPECT_EQ(kept_reach_stats().misses - s1.misses, 2);
+  EXPECT_LT(d.corridor_area, a.corridor_area);
+}
+
 // A structure type is its file: every registered type declares its geometry first (an axis of 2 points or a
 // polygon of 3, as `area` says) and carries its behaviour, so build_terrain and the run need no switch on it.
 TEST(TerrainStructures, EveryTypeDeclaresItsGeometryAndBehaviour) {

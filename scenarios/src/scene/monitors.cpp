@@ -46,7 +46,7 @@ class SceneMonitorInput final : public MonitorInput {
   }
   std::vector<std::array<real, 2>> line(const FieldSpec& key) const override {
     ShapeSource src{b_.base_dir, {}};
-    if (b_.tmodel) src.working_crs = [this] { return b_.tmodel->dem.crs_wkt; };
+    if (b_.tmodel) src.working_crs = [this] { return b_.tmodel->dem->crs_wkt; };
     const std::array<real, 2> o = origin();
     std::vector<std::array<real, 2>> out;
     for (const auto& p : read_shape(f_.raw(key.key), f_.at(key.key), key.min_points, terrain::ShapeKind::line, src))

@@ -44,7 +44,7 @@ void lay_walls(TerrainModel& m, const StructureSpec& s, const Footprint&, int k,
       if (!bed.cell_of(s.line[e][0] + t * ex, s.line[e][1] + t * ey, i, j)) continue;
       // The DEM itself, not the dp lattice: a dam owns its columns, so its ground is never regraded, and
       // the lattice would miss a V-shaped thalweg by up to half a spacing.
-      const double z = m.dem.sample(s.line[e][0] + t * ex, s.line[e][1] + t * ey);
+      const double z = m.dem->sample(s.line[e][0] + t * ex, s.line[e][1] + t * ey);
       if (!std::isnan(z) && z < thalweg_z) thalweg_z = z, thalweg_s = s0 + t * len;
     }
     s0 += len;

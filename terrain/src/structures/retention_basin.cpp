@@ -81,7 +81,7 @@ void lay_walls(TerrainModel& m, const StructureSpec& s, const Footprint& f, int 
       const auto& bpt = (*nearest)[1];
       const double len = std::hypot(bpt[0] - a[0], bpt[1] - a[1]);
       const double t = len > 0 ? along / len : 0.0;
-      double ground = m.dem.sample(a[0] + t * (bpt[0] - a[0]), a[1] + t * (bpt[1] - a[1]));
+      double ground = m.dem->sample(a[0] + t * (bpt[0] - a[0]), a[1] + t * (bpt[1] - a[1]));
       if (std::isnan(ground)) ground = m.original.at(i, j);
       const double top = ground + s.number("wall_height");
       lowest_top = std::min(lowest_top, top);

@@ -3,6 +3,7 @@
 // terrain library works on Grids and never sees GDAL.
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -82,6 +83,9 @@ struct DemOptions {
 // The grid is kept in memory by the content of every file GDAL reads for it (the raster, a VRT's sources) and
 // the options: loading the same DEM again returns the kept copy; a file changed in any byte is read afresh.
 Grid load_dem(const std::string& path, const DemOptions& options = {});
+// The same grid, shared with the keep (no copy): what a terrain build holds, so that a service validating and
+// estimating many scenes on one DEM does not copy it for each.
+std::shared_ptr<const Grid> load_dem_shared(const std::string& path, const DemOptions& options = {});
 
 // What load_dem's keep has done in this process: lookups answered from it and not, grids and bytes held.
 struct DemCacheStats {

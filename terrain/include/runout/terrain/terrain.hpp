@@ -141,7 +141,7 @@ void write_structure_layers(const std::string& gpkg_path, const std::vector<Stru
 
 // A built terrain scene. All particle positions are local (see the header comment).
 struct TerrainModel {
-  Grid dem;       // working DEM, projected, as loaded
+  std::shared_ptr<const Grid> dem;  // working DEM, projected, as loaded (shared with load_dem's keep)
   Grid bed;       // bed elevation at dp spacing over the corridor's bounding box after structures; NaN off it
   Grid original;  // the same before structures
   double origin_x = 0.0, origin_y = 0.0;
@@ -195,6 +195,14 @@ std::shared_ptr<const WallSource<3>> bed_wall_source(std::shared_ptr<const Terra
 // Throws TerrainError naming the field at fault (terrain.dem, release.polygon, structures[k], dp) for bad
 // input, before any particle is made; `max_particles` bounds the particle count.
 TerrainModel build_terrain(const TerrainSpec& spec, double dp, long max_particles = 5'000'000);
+
+// build_terrain keeps the corridor's energy-line reach (with its buffer) of the last few (DEM, release,
+// corridor, dp) it was given: what that keep has answered in this process, and how many it holds.
+struct KeptReachStats {
+  long hits = 0, misses = 0;
+  size_t kept = 0;
+};
+KeptReachStats kept_reach_stats();
 
 // Inundation on the DEM's raster (a window of it around the corridor, aligned with its cells): running
 // max depth and max speed, and the depth at the last update. Depth in a cell is the flow volume over it
