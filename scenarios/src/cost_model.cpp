@@ -45,7 +45,7 @@ double flow_columns(const CostFeatures& f) {
 // The screening rung's features (cost_model.hpp): its particles at screening.spacing, its kernel's
 // neighbours, and the CFL step of the fastest flow the corridor's energy line allows.
 CostFeatures screening_cost_features(const Scene& scene) {
-  const nlohmann::json j = nlohmann::json::parse(scene.canonical_json);
+  const nlohmann::json& j = *scene.document;
   const ScreeningSettings s = screening_settings(j, scene);
   const terrain::TerrainModel& tm = *scene.terrain;
   const auto& setup = std::get<SceneSetup<3>>(scene.setup);

@@ -526,7 +526,7 @@ class Progress {
 
 // The scene a checkpoint belongs to: its canonical JSON without the prose description (as the manifest hash).
 std::string checkpoint_identity(const Scene& scene) {
-  json j = json::parse(scene.canonical_json);
+  json j = *scene.document;
   j.erase("description");
   return j.dump();
 }

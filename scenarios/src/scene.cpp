@@ -48,29 +48,50 @@ Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
 
 }  // namespace
 
-Scene parse_scene(const std::string& json_text, const std::filesystem::path& base_dir) {
-  json j;
+SceneSpec read_scene(const json& j, const std::filesystem::path& base_dir) {
+  if (!j.is_object()) throw SceneError("(root)", "a scene must be a JSON object");
+  Fields top(j, "", top_keys(), /*partial=*/true);  // an unknown key is listed by check_declared_fields
+  SceneSpec spec;
+  spec.name = top.string_or("name", "scene");
+  (void)top.string_or("description", "");
+  spec.dimensions = static_cast<int>(top.integer("dimensions", 0, 2, 3));
+  if (!top.has("dimensions")) throw SceneError("dimensions", "missing (required: 2 or 3)");
+  check_declared_fields(j, spec.dimensions);
+  spec.dp = read_parameter(top, field_spec(top_fields(), "dp").parameters.front());
+  if (top.has("fidelity")) check_fidelity(top, spec.dp);
+  spec.duration = read_parameter(top, field_spec(top_fields(), "duration").parameters.front());
+  spec.output = read_output(j, spec.duration);
+  spec.document = std::make_shared<const json>(j);
+  spec.base_dir = base_dir;
+  return spec;
+}
+
+Scene build_scene(const SceneSpec& spec) {
+  const json& j = *spec.document;
+  Scene scene;
+  scene.name = spec.name;
+  scene.dimensions = spec.dimensions;
+  scene.dp = spec.dp;
+  scene.duration = spec.duration;
+  scene.output = spec.output;
+  scene.canonical_json = j.dump();
+  scene.document = spec.document;
+  scene = scene.dimensions == 2 ? build<2>(j, std::move(scene), spec.base_dir)
+                                : build<3>(j, std::move(scene), spec.base_dir);
+  check_scene_model(j, scene);  // "model" and "screening" (screening_scene.cpp)
+  return scene;
+}
+
+json parse_scene_document(const std::string& json_text) {
   try {
-    j = json::parse(json_text);
+    return json::parse(json_text);
   } catch (const json::exception& e) {  // parse_error, and out_of_range for numbers beyond a double (1e400)
     throw SceneError("(json)", std::string("malformed JSON: ") + e.what());
   }
-  if (!j.is_object()) throw SceneError("(root)", "a scene must be a JSON object");
-  Fields top(j, "", top_keys(), /*partial=*/true);  // an unknown key is listed by check_declared_fields
-  Scene scene;
-  scene.name = top.string_or("name", "scene");
-  (void)top.string_or("description", "");
-  scene.dimensions = static_cast<int>(top.integer("dimensions", 0, 2, 3));
-  if (!top.has("dimensions")) throw SceneError("dimensions", "missing (required: 2 or 3)");
-  check_declared_fields(j, scene.dimensions);
-  scene.dp = read_parameter(top, field_spec(top_fields(), "dp").parameters.front());
-  if (top.has("fidelity")) check_fidelity(top, scene.dp);
-  scene.duration = read_parameter(top, field_spec(top_fields(), "duration").parameters.front());
-  scene.output = read_output(j, scene.duration);
-  scene.canonical_json = j.dump();
-  scene = scene.dimensions == 2 ? build<2>(j, std::move(scene), base_dir) : build<3>(j, std::move(scene), base_dir);
-  check_scene_model(j, scene);  // "model" and "screening" (screening_scene.cpp)
-  return scene;
+}
+
+Scene parse_scene(const std::string& json_text, const std::filesystem::path& base_dir) {
+  return build_scene(read_scene(parse_scene_document(json_text), base_dir));
 }
 
 Scene load_scene(const std::filesystem::path& path) {

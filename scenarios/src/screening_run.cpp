@@ -460,7 +460,7 @@ ScreeningParticles screening_particles(const json& scene_json, const terrain::Te
 RunSummary run_screening(const Scene& scene, const RunOptions& opt) {
   RunThreads team;
   team.follow(opt);
-  const json scene_json = json::parse(scene.canonical_json);
+  const json& scene_json = *scene.document;
   const ScreeningSettings s = screening_settings(scene_json, scene);
   const terrain::TerrainModel& tm = *scene.terrain;
   fs::remove_all(opt.out_dir / "series");

@@ -130,7 +130,7 @@ ScreeningSettings screening_settings(const json& j, const Scene& scene) {
 }
 
 bool is_screening(const Scene& scene) {
-  const json j = json::parse(scene.canonical_json);
+  const json& j = *scene.document;
   return j.value("model", scene_model_names().front()) == "screening";
 }
 

@@ -16,6 +16,7 @@
 namespace runout {
 
 namespace fs = std::filesystem;
+using json = nlohmann::json;
 
 std::map<std::string, std::string> read_series(const fs::path& run_dir) {
   std::map<std::string, std::string> out;
@@ -58,7 +59,12 @@ RunStore::RunRecord run_record(const Manifest& manifest, const std::string& scen
 
 RunStore::RunRecord execute_run(const std::string& resolved_json, const Manifest& manifest, const fs::path& base_dir,
                                 const StoreRunOptions& options, StoredRun& result) {
-  const Scene scene = parse_scene(resolved_json, base_dir);
+  return execute_run(parse_scene_document(resolved_json), manifest, base_dir, options, result);
+}
+
+RunStore::RunRecord execute_run(const json& resolved, const Manifest& manifest, const fs::path& base_dir,
+                                const StoreRunOptions& options, StoredRun& result) {
+  const Scene scene = build_scene(read_scene(resolved, base_dir));
   // A stale or half-written directory from an interrupted run goes, unless it holds a checkpoint to resume.
   if (!(options.run.checkpoint_interval > 0 && has_checkpoint_of(scene, options.run.out_dir)))
     fs::remove_all(options.run.out_dir);
@@ -75,10 +81,15 @@ RunStore::RunRecord execute_run(const std::string& resolved_json, const Manifest
 
 StoredRun run_and_store(RunStore& store, const std::string& resolved_json, const fs::path& base_dir,
                         const StoreRunOptions& options) {
-  const Manifest manifest = make_manifest(resolved_json, base_dir, options.fidelity);
+  return run_and_store(store, parse_scene_document(resolved_json), base_dir, options);
+}
+
+StoredRun run_and_store(RunStore& store, const json& resolved, const fs::path& base_dir,
+                        const StoreRunOptions& options) {
+  const Manifest manifest = make_manifest(resolved, base_dir, options.fidelity);
   if (auto stored = find_completed_run(store, manifest.hash)) return *stored;
   StoredRun out;
-  const RunStore::RunRecord r = execute_run(resolved_json, manifest, base_dir, options, out);
+  const RunStore::RunRecord r = execute_run(resolved, manifest, base_dir, options, out);
   out.run_id = store.put_run(r);
   return out;
 }

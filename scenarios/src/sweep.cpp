@@ -256,7 +256,11 @@ Sweep load_sweep(const std::filesystem::path& path) {
 }
 
 std::string resolve_variant(const std::string& base_json, const SweepVariant& variant, const Fidelity& fidelity) {
-  json j = json::parse(base_json);
+  return resolve_variant(json::parse(base_json), variant, fidelity).dump();
+}
+
+json resolve_variant(const json& base, const SweepVariant& variant, const Fidelity& fidelity) {
+  json j = base;
   const std::vector<std::string> candidates = candidate_names(j);
   auto built = [&](const std::string& name) {
     return std::find(variant.structures.begin(), variant.structures.end(), name) != variant.structures.end();
@@ -280,7 +284,7 @@ std::string resolve_variant(const std::string& base_json, const SweepVariant& va
   for (const auto& p : variant.parameters) j[json::json_pointer(p.pointer)] = p.value;
   apply_fidelity(j, fidelity);
   j["name"] = j.value("name", std::string("scene")) + "/" + variant.name;
-  return j.dump();
+  return j;
 }
 
 std::string resolve_scene(const std::string& scene_json, const Fidelity& fidelity) {
@@ -297,7 +301,11 @@ std::string resolve_scene(const std::string& scene_json, const Fidelity& fidelit
 
 Manifest make_manifest(const std::string& resolved_scene_json, const std::filesystem::path& base_dir,
                        const Fidelity& fidelity) {
-  json scene = json::parse(resolved_scene_json);
+  return make_manifest(json::parse(resolved_scene_json), base_dir, fidelity);
+}
+
+Manifest make_manifest(const json& resolved_scene, const std::filesystem::path& base_dir, const Fidelity& fidelity) {
+  json scene = resolved_scene;
   scene.erase("description");  // prose: editing it changes no result, so it must not make the runs new ones
   json m;
   m["scene"] = scene;  // nlohmann::json objects are key-sorted: this is canonical

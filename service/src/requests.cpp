@@ -212,9 +212,9 @@ void check_contained(const json& scene, const std::string& path, const Limits& l
 
 // Validates a resolved scene with the scene validator, under the particle budget; the built scene's particle
 // counts and numerics go into `spec`.
-void validate_resolved(const std::string& resolved, const std::string& path, const Limits& limits, JobSpec& spec) {
-  json j = json::parse(resolved);
-  check_contained(j, path, limits);
+void validate_resolved(const json& resolved, const std::string& path, const Limits& limits, JobSpec& spec) {
+  check_contained(resolved, path, limits);
+  json j = resolved;
   long own = 5'000'000;
   bool injectable = !j.contains("limits");
   if (j.contains("limits") && j["limits"].is_object()) {
@@ -229,8 +229,7 @@ void validate_resolved(const std::string& resolved, const std::string& path, con
   const bool budget_binds = injectable && limits.particle_budget < own;
   if (budget_binds) j["limits"]["max_particles"] = limits.particle_budget;  // the validator checks it before building
   try {
-    const Scene s = parse_scene(j.dump(), limits.scene_dir);
-    record_built_scene(s, spec);
+    record_built_scene(build_scene(read_scene(j, limits.scene_dir)), spec);
   } catch (const SceneError& e) {
     std::string msg = std::string(e.what()).substr(std::min(e.field.size() + 2, std::string(e.what()).size()));
     const std::string lim = "limits.max_particles = " + std::to_string(limits.particle_budget);
@@ -260,25 +259,23 @@ JobSpec make_job(const json& base, const std::string& path, const std::optional<
   v.name = variant;
   v.structures = layout ? *layout : cands;
   v.parameters = parameters;
-  std::string resolved;
+  json r;
   try {
-    json r = json::parse(resolve_variant(base.dump(), v, fidelity));
+    r = resolve_variant(base, v, fidelity);
     if (!layout) {  // a complete scene: its own name, as written
       if (base.contains("name"))
         r["name"] = base["name"];
       else
         r.erase("name");
     }
-    resolved = r.dump();
   } catch (const json::exception& e) {
     throw ApiError(422, path, std::string("cannot apply the layout and fidelity: ") + e.what());
   }
   if (check)
-    validate_resolved(resolved, path, limits, spec);
+    validate_resolved(r, path, limits, spec);
   else
-    check_contained(json::parse(resolved), path, limits);
-  const json r = json::parse(resolved);
-  spec.scene_json = resolved;
+    check_contained(r, path, limits);
+  spec.scene_json = r.dump();
   spec.scene_name = r.value("name", std::string("scene"));
   spec.fidelity = fidelity.dp ? "custom" : fidelity.name;
   spec.dp = fidelity.dp;

@@ -8,6 +8,8 @@
 // fixed. The fix is proposed alongside these tests.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <functional>
 #include <optional>
 #include <string>
@@ -431,6 +433,46 @@ TEST(SceneValidation, LimitCountsTheParticlesMade) {
   EXPECT_NO_THROW((void)parse_scene(j.dump()));
   j["limits"]["max_particles"] = 327;
   EXPECT_THROW((void)parse_scene(j.dump()), SceneError);
+}
+
+// read_scene reads and checks the document without building: it opens no file (a DEM that is not there is
+// build_scene's to refuse) but refuses a declared field out of its range itself; build_scene of what it read
+// is the scene parse_scene makes.
+TEST(SceneValidation, ReadingASceneBuildsNothingAndBuildingWhatWasReadIsParsing) {
+  const json base = base_scene();
+  const SceneSpec spec = read_scene(base);
+  EXPECT_EQ(spec.name, "base");
+  EXPECT_EQ(spec.dimensions, 2);
+  EXPECT_EQ(spec.dp, 0.02);
+  EXPECT_EQ(spec.duration, 0.1);
+  const Scene built = build_scene(spec), parsed = parse_scene(base.dump());
+  EXPECT_EQ(built.canonical_json, parsed.canonical_json);
+  const auto counts = [](const Scene& s) {
+    return std::visit([](const auto& setup) { return std::make_pair(setup.fluid.size(), setup.boundary.size()); },
+                      s.setup);
+  };
+  EXPECT_EQ(counts(built), counts(parsed));
+
+  const std::filesystem::path dir = std::filesystem::path(RUNOUT_SOURCE_DIR) / "scenarios" / "catchment";
+  std::ifstream in(dir / "alr.json");
+  json catchment = json::parse(in);
+  catchment["terrain"]["dem"] = "no_such_dem.tif";
+  SceneSpec unbuilt;
+  ASSERT_NO_THROW(unbuilt = read_scene(catchment, dir));
+  try {
+    (void)build_scene(unbuilt);
+    ADD_FAILURE() << "a scene whose DEM is missing was built";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.field, "terrain.dem");
+  }
+
+  catchment["numerics"]["cfl"] = 7;
+  try {
+    (void)read_scene(catchment, dir);
+    ADD_FAILURE() << "numerics.cfl = 7 was read";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.field, "numerics.cfl");
+  }
 }
 
 }  // namespace

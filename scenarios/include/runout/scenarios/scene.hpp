@@ -55,8 +55,25 @@ struct Scene {
   std::variant<SceneSetup<2>, SceneSetup<3>> setup;
   // Terrain scenes: the built terrain (DEM, corridor, structures, zones), in the run's local frame.
   std::shared_ptr<const terrain::TerrainModel> terrain;
-  // The scene as given (canonical JSON text), kept for manifests.
+  // The scene as given (canonical JSON text), kept for manifests, and the same document as read, so that what
+  // reads a scene's sections after the build (the screening rung, the cost features, checkpoints) parses nothing.
   std::string canonical_json;
+  std::shared_ptr<const nlohmann::json> document;
+};
+
+// A scene read and checked without building anything: the run settings every caller needs (name, dimension,
+// spacing, duration, output) and the document the builder reads its sections from. read_scene checks the
+// whole document's declared fields (every key of the sections whose keys are declared, each number against
+// its range; SceneError lists every error at once); what needs the terrain or the particles (a release off
+// the DEM, a probe off the corridor, a rheology's rules across keys) is checked by build_scene.
+struct SceneSpec {
+  std::string name;
+  int dimensions = 2;
+  real dp = 0.01;
+  real duration = 1.0;
+  OutputSettings output;
+  std::shared_ptr<const nlohmann::json> document;
+  std::filesystem::path base_dir;  // relative file names in the scene (terrain.dem) resolve here
 };
 
 // The numbers of the numerics section whose defaults the scene computes (speed of sound, depth scale, viscosity
@@ -76,7 +93,13 @@ struct GranularDefaults {
   static constexpr double max_dilatancy = 0.1;
 };
 
+// A scene's JSON text parsed: malformed JSON (or a number beyond a double) is a SceneError on "(json)".
+nlohmann::json parse_scene_document(const std::string& json_text);
 // `base_dir` resolves relative file names in the scene (terrain.dem); load_scene uses the file's folder.
+SceneSpec read_scene(const nlohmann::json& document, const std::filesystem::path& base_dir = {});
+// The particles, the terrain and the engine setup of a read scene: what a run needs, built once.
+Scene build_scene(const SceneSpec& spec);
+// read_scene and build_scene of a JSON text (malformed JSON is a SceneError on "(json)").
 Scene parse_scene(const std::string& json_text, const std::filesystem::path& base_dir = {});
 Scene load_scene(const std::filesystem::path& path);
 

@@ -41,6 +41,9 @@ struct StoreRunOptions {
 };
 StoredRun run_and_store(RunStore& store, const std::string& resolved_json, const std::filesystem::path& base_dir,
                         const StoreRunOptions& options);
+// The same on a parsed scene: the text above is parsed once, here, for the manifest and the build alike.
+StoredRun run_and_store(RunStore& store, const nlohmann::json& resolved, const std::filesystem::path& base_dir,
+                        const StoreRunOptions& options);
 
 // run_and_store in its two halves, so that a run can execute in one process (an MPI worker rank) and be stored
 // by another (rank 0, which owns the store), with exactly the record run_and_store would have stored.
@@ -50,6 +53,9 @@ std::optional<StoredRun> find_completed_run(const RunStore& store, const std::st
 // `result` gets the status, error and wall time (run_id stays 0). Nothing is stored. Throws what parse_scene
 // and run_scene throw (a refused scene, a run that could not start).
 RunStore::RunRecord execute_run(const std::string& resolved_json, const Manifest& manifest,
+                                const std::filesystem::path& base_dir, const StoreRunOptions& options,
+                                StoredRun& result);
+RunStore::RunRecord execute_run(const nlohmann::json& resolved, const Manifest& manifest,
                                 const std::filesystem::path& base_dir, const StoreRunOptions& options,
                                 StoredRun& result);
 

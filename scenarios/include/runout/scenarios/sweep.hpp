@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 namespace runout {
 
 // Fidelity: a named preset of dp and the numerics that go with it, or an explicit dp. A scene may define
@@ -95,6 +97,8 @@ std::vector<SweepVariant> factorial_variants(const std::vector<std::string>& nam
 // the preset's numerics applied, "fidelity" removed, named "<base name>/<variant>". Validated by
 // parse_scene when run.
 std::string resolve_variant(const std::string& base_json, const SweepVariant& variant, const Fidelity& fidelity);
+// The same on a parsed base (the service's job path, which parses a request once).
+nlohmann::json resolve_variant(const nlohmann::json& base, const SweepVariant& variant, const Fidelity& fidelity);
 
 // One scene's JSON at a fidelity, resolved as resolve_variant resolves a layout (dp and the preset's numerics
 // applied, "fidelity" removed) but with its structures and name as written: `runout run --fidelity/--dp`.
@@ -108,6 +112,8 @@ struct Manifest {
   std::string json;  // what was hashed, for the record
 };
 Manifest make_manifest(const std::string& resolved_scene_json, const std::filesystem::path& base_dir,
+                       const Fidelity& fidelity);
+Manifest make_manifest(const nlohmann::json& resolved_scene, const std::filesystem::path& base_dir,
                        const Fidelity& fidelity);
 
 }  // namespace runout
