@@ -2,6 +2,7 @@
 // The steps of build_terrain (build.cpp), in its order: the corridor on the DEM and the bed grid at dp over
 // it (corridor.cpp), the structures' footprints, regrading, walls and storage (structures.cpp), and the
 // boundary and release particles (particles.cpp). Private to the terrain library.
+#include <array>
 #include <cstddef>
 #include <limits>
 #include <memory>
@@ -26,6 +27,13 @@ struct Footprint {
   double half_wall;
   std::vector<Polyline> walled_edges;  // basins
   bool contains(double x, double y) const;
+  // Whether (x, y) is in the bounding box of the structure's line widened by half_wall + extra: a point
+  // outside it is farther than that from the line, so whole-grid scans skip it before any distance.
+  bool near(double x, double y, double extra) const {
+    const double r = half_wall + extra + 1e-6;  // a micrometre over: the distances' rounding never decides
+    return x >= box[0] - r && x <= box[1] + r && y >= box[2] - r && y <= box[3] + r;
+  }
+  std::array<double, 4> box{};  // the line's x0, x1, y0, y1 (footprints sets it)
   double reach() const { return half_wall; }
   bool walled(const Polyline& edge) const;  // a basin edge that carries a wall
 };

@@ -15,6 +15,7 @@ void raise_wall(TerrainModel& m, size_t c, int k, double top) {
 }
 
 bool Footprint::contains(double x, double y) const {
+  if (!near(x, y, 0.0)) return false;
   if (!s->type->area) return distance_to_polyline(s->line, x, y) <= half_wall;
   if (inside_polygon(s->line, x, y)) return true;
   for (const auto& e : walled_edges)
@@ -34,6 +35,9 @@ std::vector<Footprint> footprints(const TerrainSpec& spec, const Grid& dem, doub
   std::vector<Footprint> feet;
   for (const auto& s : spec.structures) {
     Footprint f{&s, 0.0, {}};
+    f.box = {1e300, -1e300, 1e300, -1e300};
+    for (const auto& p : s.line)
+      f.box = {std::min(f.box[0], p[0]), std::max(f.box[1], p[0]), std::min(f.box[2], p[1]), std::max(f.box[3], p[1])};
     s.type->steps->footprint(s, dem, min_half_wall, f);
     feet.push_back(std::move(f));
   }

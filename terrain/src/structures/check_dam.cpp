@@ -106,7 +106,8 @@ void storage(TerrainModel& m, const StructureSpec& s, const Footprint& f, int k,
   for (size_t c = 0; c < bed.values.size(); ++c) {
     if (owner[c] >= 0 || std::isnan(bed.values[c]) || bed.values[c] >= info.crest_elevation) continue;
     const double x = bed.cx(static_cast<int>(c % nx)), y = bed.cy(static_cast<int>(c / nx));
-    if (distance_to_polyline(s.line, x, y) <= f.half_wall + 1.5 * dp && axis_side(s.line, x, y) == up) {
+    if (f.near(x, y, 1.5 * dp) && distance_to_polyline(s.line, x, y) <= f.half_wall + 1.5 * dp &&
+        axis_side(s.line, x, y) == up) {
       seen[c] = 1;
       stack.push_back(c);
     }
