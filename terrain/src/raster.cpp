@@ -410,6 +410,11 @@ std::shared_ptr<const Grid> load_dem_shared(const std::string& path, const DemOp
   if (GDALGetRasterCount(src.get()) < 1) dem_error("'" + path + "' has no raster bands");
   const int nx = GDALGetRasterXSize(src.get()), ny = GDALGetRasterYSize(src.get());
   if (nx < 1 || ny < 1) dem_error("'" + path + "' is empty");
+  // A grid kept under this content and these options passed every check below when it was made; the CRS
+  // checks ask PROJ's database, which was a tenth of an estimate on the Alr catchment.
+  const std::string key = dem_content_key(src.get(), options);
+  if (!key.empty())
+    if (std::shared_ptr<const Grid> kept = detail::cached_dem(key)) return kept;
 
   OGRSpatialReferenceH src_srs_h = GDALGetSpatialRef(src.get());
   if (!src_srs_h || OGRSpatialReference::FromHandle(src_srs_h)->IsEmpty())
@@ -430,9 +435,6 @@ std::shared_ptr<const Grid> load_dem_shared(const std::string& path, const DemOp
     dem_error("resolution must be a positive number of metres (or 0 for native), got " +
               std::to_string(options.resolution));
 
-  const std::string key = dem_content_key(src.get(), options);
-  if (!key.empty())
-    if (std::shared_ptr<const Grid> kept = detail::cached_dem(key)) return kept;
   auto g = std::make_shared<const Grid>(
       !reproject && !resample
           ? require_data(read_band1(src.get(), gt, srs_to_wkt(*src_srs), path), path)
