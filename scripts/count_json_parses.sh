@@ -51,7 +51,7 @@ submit_and_wait() {
   local id
   id=$(curl -sf -X POST -H 'Content-Type: application/json' --data @"$WORK/job.json" \
     "localhost:$PORT/api/v1/jobs" | sed -n 's/.*"id":\([0-9]*\).*/\1/p')
-  # Wait on the store, not on GET /jobs/ID (which parses the job's stored progress).
+  # Wait on the store, not on GET /jobs/ID (which parses the stored scene to answer it).
   for _ in $(seq 600); do
     [ "$(sqlite3 "$WORK/r.db" "SELECT status FROM jobs WHERE id = $id" 2>/dev/null)" = done ] && return 0
     sleep 0.1
