@@ -50,18 +50,13 @@ json layer_ref_schema() {
           {"additionalProperties", false}};
 }
 
-// A line or polygon in map coordinates: [x, y] points or a layer.
-json geometry_schema(size_t min_points, const std::string& doc) {
-  return {{"anyOf", {point_array(min_points), layer_ref_schema()}}, {"description", doc}};
-}
-
 // One declared key: its JSON shape, range and doc (a computed default said in the description).
 json field_schema(const FieldSpec& f) {
   json s;
   if (f.shape == "number") {
     s = number_schema(f.parameters.front());
     if (!f.default_text.empty()) s.erase("default");
-  } else if (f.shape == "polyline") {
+  } else if (f.shape == "polyline") {  // a line or polygon in map coordinates: [x, y] points or a layer
     s = {{"anyOf", {point_array(f.min_points), layer_ref_schema()}}};
   } else if (f.shape == "vector") {
     json item = number_schema(f.parameters.front());
