@@ -27,8 +27,9 @@ void check_fidelity(const Fields& top, real dp) {
 }
 
 template <int D>
-Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir) {
+Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir, bool particles) {
   Build<D> b(j, scene, base_dir);
+  b.particles = particles;
   read_gravity(b);
   read_materials(b);
   read_limits(b);
@@ -61,6 +62,7 @@ SceneSpec read_scene(const json& j, const std::filesystem::path& base_dir) {
   if (top.has("fidelity")) check_fidelity(top, spec.dp);
   spec.duration = read_parameter(top, field_spec(top_fields(), "duration").parameters.front());
   spec.output = read_output(j, spec.duration);
+  spec.model = top.string_or("model", scene_model_names().front(), scene_model_names());
   spec.document = std::make_shared<const json>(j);
   spec.base_dir = base_dir;
   return spec;
@@ -76,8 +78,9 @@ Scene build_scene(const SceneSpec& spec) {
   scene.output = spec.output;
   scene.canonical_json = j.dump();
   scene.document = spec.document;
-  scene = scene.dimensions == 2 ? build<2>(j, std::move(scene), spec.base_dir)
-                                : build<3>(j, std::move(scene), spec.base_dir);
+  const bool particles = spec.model != "screening";
+  scene = scene.dimensions == 2 ? build<2>(j, std::move(scene), spec.base_dir, particles)
+                                : build<3>(j, std::move(scene), spec.base_dir, particles);
   check_scene_model(j, scene);  // "model" and "screening" (screening_scene.cpp)
   return scene;
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "runout/engine/rheology.hpp"
+#include "runout/scenarios/cost_model.hpp"
 #include "scene/readers.hpp"
 #include "screening_run.hpp"
 
@@ -146,7 +147,15 @@ void check_scene_model(const json& j, const Scene& scene) {
   for (const char* key : {"fluid", "inlets", "boundaries"})
     if (top.has(key) && !(top.raw(key).is_array() && top.raw(key).empty()))
       throw SceneError(key, "the screening model runs the terrain's release only (remove it, or run \"model\": \"sph3d\")");
-  (void)screening_settings(j, scene);
+  const ScreeningSettings s = screening_settings(j, scene);
+  // The limit counts what runs: the rung's own particles (the release's lattice at its spacing, and what a
+  // hydrograph brings over the run), not the 3D lattice the scene would make at dp.
+  const double peak = cost_features(scene).fluid_peak;
+  if (peak > static_cast<double>(scene.max_particles))
+    throw SceneError("screening.spacing", "the screening rung makes about " + std::to_string(std::llround(peak)) +
+                                              " particles at spacing " + fmt(s.spacing) +
+                                              " m, over limits.max_particles = " + std::to_string(scene.max_particles) +
+                                              " (raise screening.spacing or the limit)");
 }
 
 }  // namespace runout

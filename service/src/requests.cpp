@@ -168,6 +168,7 @@ std::optional<std::string> parse_key(const json& body) {
 
 // Particle counts and what the cost model predicts from, from the built scene.
 void record_built_scene(const Scene& s, JobSpec& spec) {
+  spec.cost = cost_features(s);
   std::visit(
       [&](const auto& setup) {
         spec.fluid_particles = static_cast<int64_t>(setup.fluid.size());
@@ -176,7 +177,10 @@ void record_built_scene(const Scene& s, JobSpec& spec) {
             static_cast<int64_t>(setup.boundary.size() + (setup.wall_source ? setup.wall_source->total() : 0));
       },
       s.setup);
-  spec.cost = cost_features(s);
+  if (spec.cost.model == "screening") {  // its own particles at most at once; its bed is a grid
+    spec.fluid_particles = std::llround(spec.cost.fluid_peak);
+    spec.boundary_particles = 0;
+  }
   spec.particles = spec.fluid_particles + spec.boundary_particles;
   spec.dimensions = s.dimensions;
   spec.resolved_dp = s.dp;

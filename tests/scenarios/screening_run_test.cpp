@@ -59,6 +59,7 @@
 #include <nlohmann/json.hpp>
 
 #include "runout/engine/depth_averaged.hpp"
+#include "runout/scenarios/cost_model.hpp"
 #include "runout/scenarios/run.hpp"
 #include "runout/scenarios/scene.hpp"
 #include "runout/scenarios/store.hpp"
@@ -451,6 +452,42 @@ TEST(ScreeningRun, RefusesABadScreeningFieldNamingIt) {
   EXPECT_EQ(refused(s), "accepted");
   s["screening"].erase("earth_pressure_rule");
   EXPECT_EQ(refused(s).rfind("screening.internal_friction_angle | ", 0), 0u) << refused(s);
+}
+
+// A screening scene is built without the 3D particles its rung does not run (fluid, walls, the bed's wall
+// source), and limits.max_particles counts the rung's own particles: the same scene as sph3d makes more.
+TEST(ScreeningRun, AScreeningSceneBuildsNoThreeDParticlesAndItsLimitCountsItsOwn) {
+  const fs::path dir = fresh_dir("own_particles");
+  write_dem(dir / "channel.asc", kChLength, kChWidth, 0.5, channel);
+  json s = channel_scene(40.0, 10, 4, true);
+  const Scene screening = parse_scene(s.dump(), dir);
+  const auto& built = std::get<SceneSetup<3>>(screening.setup);
+  EXPECT_EQ(built.fluid.size(), 0u);
+  EXPECT_EQ(built.boundary.size(), 0u);
+  EXPECT_EQ(built.wall_source, nullptr);
+  json as_3d = s;
+  as_3d["model"] = "sph3d";
+  const Scene sph = parse_scene(as_3d.dump(), dir);
+  const auto& full = std::get<SceneSetup<3>>(sph.setup);
+  ASSERT_NE(full.wall_source, nullptr);
+  EXPECT_GT(static_cast<long>(full.fluid.size() + full.boundary.size() + full.wall_source->total()),
+            std::lround(cost_features(screening).fluid_peak));
+
+  // At a spacing of 0.04 m the rung's 250 x 200 particles are more than the terrain's own guard on its bed grid
+  // at dp needs (316 x 120 columns, terrain/src/corridor.cpp: columns x layers <= 4 x the limit), so the limit
+  // binds on them alone.
+  s["screening"]["spacing"] = 0.04;
+  const long own = std::lround(cost_features(parse_scene(s.dump(), dir)).fluid_peak);
+  ASSERT_EQ(own, 250 * 200);
+  s["limits"]["max_particles"] = own;
+  EXPECT_NO_THROW((void)parse_scene(s.dump(), dir));
+  s["limits"]["max_particles"] = own - 1;
+  try {
+    (void)parse_scene(s.dump(), dir);
+    ADD_FAILURE() << "a limit under the rung's " << own << " particles was accepted";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.field, "screening.spacing") << e.what();
+  }
 }
 
 // The rule reaches the model and the record: a run with it completes and metrics.json carries the coefficients.

@@ -428,8 +428,9 @@ TEST_F(Api, AnEnsembleSweepRunsEveryLayoutAtEveryMemberAndIsSummarised) {
 
 // A screening job is priced by the screening rung's cost model (docs/tradeoff.md, "The screening rung's cost"),
 // not as the 3D run its scene also describes: the shipped flume's release, 0.5 m x 0.3 m at the spacing 0.01 m,
-// is 50 x 30 screening particles, and the screening rung, the ladder's cheap rung, is estimated below the 3D
-// standard rung (measured on one thread: 5.6 s against 114 s for C6 at standard, docs/tradeoff.md).
+// is 50 x 30 screening particles (the particles the job is counted at too, not the 3D lattice it would make), and
+// the screening rung, the ladder's cheap rung, is estimated below the 3D standard rung (measured on one thread:
+// 5.6 s against 114 s for C6 at standard, docs/tradeoff.md).
 TEST_F(Api, AScreeningJobIsPricedAsTheScreeningRungNotAsA3DRun) {
   const fs::path scenes = dir_ / "scenes", flume = fs::path(RUNOUT_SOURCE_DIR) / "scenarios" / "flume";
   fs::create_directories(scenes);
@@ -446,6 +447,8 @@ TEST_F(Api, AScreeningJobIsPricedAsTheScreeningRungNotAsA3DRun) {
   EXPECT_EQ(screening.body.at("model").at("flow_model"), "screening");
   EXPECT_EQ(screening.body.at("model").at("fluid_mean"), 50 * 30);
   EXPECT_EQ(screening.body.at("particles").at("boundary_peak_estimate"), 0);  // its bed is a grid
+  EXPECT_EQ(screening.body.at("particles").at("fluid"), 50 * 30);  // what the particle budget counts: its own
+  EXPECT_EQ(screening.body.at("particles").at("boundary"), 0);
   EXPECT_EQ(standard.body.at("model").at("flow_model"), "sph3d");
   EXPECT_LT(screening.body.at("seconds_estimate").get<double>(), standard.body.at("seconds_estimate").get<double>());
 }

@@ -126,6 +126,8 @@ void make_particles(Build<D>& b) {
   const SolverConfig& cfg = b.cfg;
   SceneSetup<D>& setup = b.setup;
   const real dp = b.dp;
+  setup.max_particles = b.scene.max_particles;
+  if (!b.particles) return;  // the screening rung's particles are checked against the limit by check_scene_model
   for (const auto& pf : b.pending) {
     const real rho0 = setup.materials[pf.material].density;
     const TaitEOS eos(cfg.speed_of_sound, rho0, cfg.eos_gamma);
@@ -149,7 +151,6 @@ void make_particles(Build<D>& b) {
       setup.boundary_normals.insert(setup.boundary_normals.end(), normals.begin(), normals.end());
     }
   }
-  setup.max_particles = b.scene.max_particles;
   const long total = static_cast<long>(setup.fluid.size() + setup.boundary.size());
   if (total > b.scene.max_particles)
     throw SceneError("dp", "the scene has " + std::to_string(total) + " particles, over limits.max_particles = " +

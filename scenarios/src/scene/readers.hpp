@@ -207,6 +207,7 @@ struct Build {
   // the start after the other boundary particles ("all").
   std::shared_ptr<const WallSource<3>> bed_source;
   bool walls_near_flow = true;
+  bool particles = true;  // false: the screening model runs the scene, and makes no 3D particle (no bed source)
   real bottom = 0;                                       // the lowest particle (after the boundaries)
 };
 

@@ -72,6 +72,9 @@ struct SceneSpec {
   real dp = 0.01;
   real duration = 1.0;
   OutputSettings output;
+  // The flow model that runs it ("model": sph3d, or screening). A screening scene is built without the 3D
+  // particles (fluid, walls, the bed's wall source): its rung makes its own on the terrain's grid.
+  std::string model = "sph3d";
   std::shared_ptr<const nlohmann::json> document;
   std::filesystem::path base_dir;  // relative file names in the scene (terrain.dem) resolve here
 };
