@@ -239,7 +239,8 @@ void validate_resolved(const json& resolved, const std::string& path, const Limi
     const std::string lim = "limits.max_particles = " + std::to_string(limits.particle_budget);
     if (budget_binds && msg.find(lim) != std::string::npos) {
       msg.replace(msg.find(lim), lim.size(), "the particle budget");
-      throw ApiError(422, at(path, "dp"),
+      // The field the scene names: dp for the 3D lattice, screening.spacing for the screening rung's own.
+      throw ApiError(422, at(path, e.field),
                      msg + " (accepted: at most " + std::to_string(limits.particle_budget) +
                          " particles per job, --particle-budget; choose a coarser fidelity)");
     }
