@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <mutex>
 
 #include "runout/terrain/terrain.hpp"
 
@@ -13,45 +14,34 @@ namespace {
 // A particle's id is its place in the column-by-column, top-down order, the order of the bed laid whole.
 class BedWallSource final : public WallSource<3> {
  public:
+  // The count and the lowest corner are all a scene's build and an estimate ask for: one pass over the columns.
+  // The per-column index (three arrays the size of the bed grid, a quarter of a catchment's estimate) is made
+  // when a run first asks for tiles.
   explicit BedWallSource(std::shared_ptr<const TerrainModel> model) : m_(std::move(model)) {
     const Grid& bed = m_->bed;
-    grid_.size = m_->dp;
-    grid_.x0 = bed.x0 - m_->origin_x;
-    grid_.y0 = bed.y1() - m_->origin_y;
-    grid_.nx = bed.nx;
-    grid_.ny = bed.ny;
-    grid_.spread = 0;  // a column's particles are on its axis
-    grid_.slab = kBedSlabLayers * m_->dp;
-    grid_.slab_extent = (kBedSlabLayers - 1) * m_->dp;
-    const int64_t columns = grid_.columns();
-    grid_.column_first.assign(static_cast<size_t>(columns) + 1, 0);
-    grid_.column_top.assign(static_cast<size_t>(columns), 0.0);
-    first_.assign(static_cast<size_t>(columns) + 1, 0);
     lowest_ = Vec<3>::Constant(std::numeric_limits<real>::infinity());
-    for (int64_t k = 0; k < columns; ++k) {
-      const int i = static_cast<int>(k % grid_.nx), j = bed.ny - 1 - static_cast<int>(k / grid_.nx);
-      const size_t c = static_cast<size_t>(j) * bed.nx + i;
-      const int layers = m_->bed_layers[c];
-      first_[k + 1] = first_[k] + layers;
-      grid_.column_first[k + 1] = grid_.column_first[k] + (layers + kBedSlabLayers - 1) / kBedSlabLayers;
-      if (layers == 0) continue;
-      grid_.column_top[k] = position(i, j, c, 0)[2];
-      lowest_ = lowest_.cwiseMin(position(i, j, c, layers - 1));
-    }
+    for (int j = 0; j < bed.ny; ++j)
+      for (int i = 0; i < bed.nx; ++i) {
+        const size_t c = static_cast<size_t>(j) * bed.nx + i;
+        const int layers = m_->bed_layers[c];
+        total_ += layers;
+        if (layers > 0) lowest_ = lowest_.cwiseMin(position(i, j, c, layers - 1));  // a minimum: any order
+      }
   }
 
-  WallTileGrid tiles() const override { return grid_; }
+  WallTileGrid tiles() const override { return index().grid; }
   uint64_t first_index(int64_t t) const override {
     const Slab sl = slab_of(t);
-    return first_[sl.column] + static_cast<uint64_t>(sl.first_layer);
+    return index().first[sl.column] + static_cast<uint64_t>(sl.first_layer);
   }
-  uint64_t total() const override { return first_.back(); }
+  uint64_t total() const override { return total_; }
   Vec<3> lowest() const override { return lowest_; }
 
   void lay(int64_t t, std::vector<Vec<3>>& positions, std::vector<Vec<3>>& normals,
            std::vector<uint32_t>& tags) const override {
     const Slab sl = slab_of(t);
-    const int i = static_cast<int>(sl.column % grid_.nx), j = m_->bed.ny - 1 - static_cast<int>(sl.column / grid_.nx);
+    const int nx = m_->bed.nx;  // the tile grid's columns are the bed's
+    const int i = static_cast<int>(sl.column % nx), j = m_->bed.ny - 1 - static_cast<int>(sl.column / nx);
     const size_t c = static_cast<size_t>(j) * m_->bed.nx + i;
     const Vec<3> n = bed_normal(i, j);
     const int end = std::min<int>(m_->bed_layers[c], sl.first_layer + kBedSlabLayers);
@@ -64,16 +54,51 @@ class BedWallSource final : public WallSource<3> {
 
  private:
   std::shared_ptr<const TerrainModel> m_;
-  WallTileGrid grid_;
-  std::vector<uint64_t> first_;  // per grid column: the particles of the columns before it
+  uint64_t total_ = 0;
   Vec<3> lowest_;
+  struct Index {
+    WallTileGrid grid;
+    std::vector<uint64_t> first;  // per grid column: the particles of the columns before it
+  };
+  mutable std::once_flag once_;
+  mutable Index index_;
+
+  const Index& index() const {
+    std::call_once(once_, [this] { make_index(index_); });
+    return index_;
+  }
+  void make_index(Index& x) const {
+    const Grid& bed = m_->bed;
+    WallTileGrid& grid = x.grid;
+    grid.size = m_->dp;
+    grid.x0 = bed.x0 - m_->origin_x;
+    grid.y0 = bed.y1() - m_->origin_y;
+    grid.nx = bed.nx;
+    grid.ny = bed.ny;
+    grid.spread = 0;  // a column's particles are on its axis
+    grid.slab = kBedSlabLayers * m_->dp;
+    grid.slab_extent = (kBedSlabLayers - 1) * m_->dp;
+    const int64_t columns = grid.columns();
+    grid.column_first.assign(static_cast<size_t>(columns) + 1, 0);
+    grid.column_top.assign(static_cast<size_t>(columns), 0.0);
+    x.first.assign(static_cast<size_t>(columns) + 1, 0);
+    for (int64_t k = 0; k < columns; ++k) {
+      const int i = static_cast<int>(k % grid.nx), j = bed.ny - 1 - static_cast<int>(k / grid.nx);
+      const size_t c = static_cast<size_t>(j) * bed.nx + i;
+      const int layers = m_->bed_layers[c];
+      x.first[k + 1] = x.first[k] + layers;
+      grid.column_first[k + 1] = grid.column_first[k] + (layers + kBedSlabLayers - 1) / kBedSlabLayers;
+      if (layers == 0) continue;
+      grid.column_top[k] = position(i, j, c, 0)[2];
+    }
+  }
 
   struct Slab {
     int64_t column;
     int first_layer;
   };
   Slab slab_of(int64_t t) const {
-    const auto& cf = grid_.column_first;
+    const auto& cf = index().grid.column_first;
     const int64_t k = std::upper_bound(cf.begin(), cf.end(), t) - cf.begin() - 1;
     return {k, static_cast<int>(t - cf[static_cast<size_t>(k)]) * kBedSlabLayers};
   }
