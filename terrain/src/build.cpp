@@ -168,12 +168,12 @@ TerrainModel build_terrain(const TerrainSpec& given, double dp, long max_particl
 
   double release_depth = spec.release.depth;
   if (!(release_depth > 0)) release_depth = spec.release.volume / release_area;
-  std::vector<char> corridor = detail::corridor_cells(spec, m.dem, feet, release_depth, dp, m.max_energy_height);
-  const detail::CorridorBox box = detail::corridor_box(*m.dem, corridor);
+  const detail::Corridor corridor = detail::corridor_cells(spec, m.dem, feet, release_depth, dp, m.max_energy_height);
+  const detail::CorridorBox& box = corridor.box;
   m.corridor_area = box.kept * m.dem->cell_area();
   m.max_corridor_outflow = spec.corridor.max_outflow;
   m.modelled_fraction = static_cast<double>(box.kept) / static_cast<double>(box.valid);
-  detail::lay_bed(m, corridor, box, spec.layers, max_particles);
+  detail::lay_bed(m, *corridor.cells, box, spec.layers, max_particles);
 
   const std::vector<size_t> release_cols = detail::release_columns(spec.release.polygon, m.bed, dp);
   const std::vector<int> owner = detail::structure_owners(spec, feet, m.bed, dp);

@@ -39,13 +39,6 @@ struct Footprint {
 };
 std::vector<Footprint> footprints(const TerrainSpec& spec, const Grid& dem, double dp);
 
-// DEM cells the model covers: the energy-line reach (buffered) or the corridor polygon, plus every
-// structure's footprint. Sets max_energy_height (at least the release depth). The reach and its buffer are
-// kept for the last few (DEM, release, corridor) this process built (kept_reach_stats).
-std::vector<char> corridor_cells(const TerrainSpec& spec, const std::shared_ptr<const Grid>& dem,
-                                 const std::vector<Footprint>& feet, double release_depth, double dp,
-                                 double& max_energy_height);
-
 // The corridor's bounding box in DEM cells, and how many cells it keeps of those with data.
 struct CorridorBox {
   int i0, i1, j0, j1;
@@ -53,6 +46,18 @@ struct CorridorBox {
 };
 // Drops nodata cells from the corridor; throws if none is left.
 CorridorBox corridor_box(const Grid& dem, std::vector<char>& corridor);
+
+// DEM cells the model covers (nodata dropped) and their box: the energy-line reach (buffered) or the corridor
+// polygon, plus every structure's footprint. Sets max_energy_height (at least the release depth). The reach,
+// its buffer and its box are kept for the last few (DEM, release, corridor, dp) this process built
+// (kept_reach_stats); when no footprint adds a cell to it, `cells` is the kept reach itself, not a copy.
+struct Corridor {
+  std::shared_ptr<const std::vector<char>> cells;
+  CorridorBox box;
+};
+Corridor corridor_cells(const TerrainSpec& spec, const std::shared_ptr<const Grid>& dem,
+                        const std::vector<Footprint>& feet, double release_depth, double dp,
+                        double& max_energy_height);
 
 // m.original and m.bed at m.dp over the box, the local origin and the open faces.
 void lay_bed(TerrainModel& m, const std::vector<char>& corridor, const CorridorBox& box, int layers,

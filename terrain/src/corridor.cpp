@@ -103,8 +103,10 @@ std::vector<char> release_reach(const ReleaseSpec& release, const CorridorSpec& 
   return energy_line_reach(dem, sources, std::tan(corridor.travel_angle_deg * kPi / 180.0), max_energy_height);
 }
 
-// A structure the user placed is modelled even where the reach does not go.
-void add_footprint_cells(const Grid& dem, const std::vector<Footprint>& feet, std::vector<char>& corridor) {
+// A structure the user placed is modelled even where the reach does not go: visit(c) for each DEM cell c
+// within its reach of a footprint.
+template <class Visit>
+void for_footprint_cells(const Grid& dem, const std::vector<Footprint>& feet, Visit&& visit) {
   for (const auto& f : feet) {
     double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
     for (const auto& p : f.s->line) x0 = std::min(x0, p[0]), x1 = std::max(x1, p[0]), y0 = std::min(y0, p[1]), y1 = std::max(y1, p[1]);
@@ -118,10 +120,29 @@ void add_footprint_cells(const Grid& dem, const std::vector<Footprint>& feet, st
         const double d = !f.s->type->area ? distance_to_polyline(f.s->line, dem.cx(i), dem.cy(j))
                          : inside_polygon(f.s->line, dem.cx(i), dem.cy(j)) ? 0.0
                                                                           : distance_to_polyline(ring, dem.cx(i), dem.cy(j));
-        if (d <= r) corridor[static_cast<size_t>(j) * dem.nx + i] = 1;
+        if (d <= r) visit(static_cast<size_t>(j) * dem.nx + i);
       }
     }
   }
+}
+
+// corridor_box without the throw: the box of the cells with data (kept = 0: none), nodata dropped.
+CorridorBox scan_box(const Grid& dem, std::vector<char>& corridor) {
+  CorridorBox box{dem.nx, -1, dem.ny, -1};
+  for (int j = 0; j < dem.ny; ++j) {
+    for (int i = 0; i < dem.nx; ++i) {
+      const size_t c = static_cast<size_t>(j) * dem.nx + i;
+      if (std::isnan(dem.values[c])) {
+        corridor[c] = 0;
+        continue;
+      }
+      ++box.valid;
+      if (!corridor[c]) continue;
+      ++box.kept;
+      box.i0 = std::min(box.i0, i), box.i1 = std::max(box.i1, i), box.j0 = std::min(box.j0, j), box.j1 = std::max(box.j1, j);
+    }
+  }
+  return box;
 }
 
 // The reach (buffered) or the corridor polygon, before the structures' footprints: a function of the DEM, the
@@ -129,7 +150,8 @@ void add_footprint_cells(const Grid& dem, const std::vector<Footprint>& feet, st
 // build (docs/performance.md, "Estimates"), and every layout of a study, every estimate and every check of one
 // catchment asks for the same one.
 struct Reach {
-  std::vector<char> cells;
+  std::vector<char> cells;  // nodata dropped
+  CorridorBox box;          // kept = 0: no cell with data
   double max_energy_height = 0.0;
 };
 
@@ -146,6 +168,7 @@ Reach compute_reach(const TerrainSpec& spec, const Grid& dem, double release_dep
       for (int i = 0; i < dem.nx; ++i)
         r.cells[static_cast<size_t>(j) * dem.nx + i] = inside_polygon(spec.corridor.polygon, dem.cx(i), dem.cy(j));
   }
+  r.box = scan_box(dem, r.cells);
   return r;
 }
 
@@ -216,31 +239,23 @@ std::shared_ptr<const Reach> reach_of(const TerrainSpec& spec, const std::shared
 
 }  // namespace
 
-std::vector<char> corridor_cells(const TerrainSpec& spec, const std::shared_ptr<const Grid>& dem,
-                                 const std::vector<Footprint>& feet, double release_depth, double dp,
-                                 double& max_energy_height) {
+Corridor corridor_cells(const TerrainSpec& spec, const std::shared_ptr<const Grid>& dem,
+                        const std::vector<Footprint>& feet, double release_depth, double dp,
+                        double& max_energy_height) {
   const std::shared_ptr<const Reach> reach = reach_of(spec, dem, release_depth, dp);
   max_energy_height = reach->max_energy_height;
-  std::vector<char> corridor = reach->cells;
-  add_footprint_cells(*dem, feet, corridor);
-  return corridor;
+  bool adds = false;  // a footprint cell with data off the reach
+  for_footprint_cells(*dem, feet, [&](size_t c) { adds = adds || (!reach->cells[c] && !std::isnan(dem->values[c])); });
+  if (!adds && reach->box.kept > 0)  // the reach as kept: no copy of a mask the size of the DEM, no scan
+    return {std::shared_ptr<const std::vector<char>>(reach, &reach->cells), reach->box};
+  auto cells = std::make_shared<std::vector<char>>(reach->cells);
+  for_footprint_cells(*dem, feet, [&](size_t c) { (*cells)[c] = 1; });
+  const CorridorBox box = corridor_box(*dem, *cells);
+  return {std::move(cells), box};
 }
 
 CorridorBox corridor_box(const Grid& dem, std::vector<char>& corridor) {
-  CorridorBox box{dem.nx, -1, dem.ny, -1};
-  for (int j = 0; j < dem.ny; ++j) {
-    for (int i = 0; i < dem.nx; ++i) {
-      const size_t c = static_cast<size_t>(j) * dem.nx + i;
-      if (std::isnan(dem.values[c])) {
-        corridor[c] = 0;
-        continue;
-      }
-      ++box.valid;
-      if (!corridor[c]) continue;
-      ++box.kept;
-      box.i0 = std::min(box.i0, i), box.i1 = std::max(box.i1, i), box.j0 = std::min(box.j0, j), box.j1 = std::max(box.j1, j);
-    }
-  }
+  const CorridorBox box = scan_box(dem, corridor);
   if (box.kept == 0) throw TerrainError("release.polygon", "lies on DEM nodata: no cell of the corridor has data");
   return box;
 }
