@@ -108,8 +108,7 @@ std::vector<char> release_reach(const ReleaseSpec& release, const CorridorSpec& 
 template <class Visit>
 void for_footprint_cells(const Grid& dem, const std::vector<Footprint>& feet, Visit&& visit) {
   for (const auto& f : feet) {
-    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
-    for (const auto& p : f.s->line) x0 = std::min(x0, p[0]), x1 = std::max(x1, p[0]), y0 = std::min(y0, p[1]), y1 = std::max(y1, p[1]);
+    const auto [x0, x1, y0, y1] = f.box;
     const double r = f.reach() + std::max(dem.dx, dem.dy);
     Polyline ring = f.s->line;  // the polygon's outline, closed
     ring.push_back(ring.front());
@@ -227,10 +226,10 @@ std::shared_ptr<const Reach> reach_of(const TerrainSpec& spec, const std::shared
   if (reach->cells.size() > KeptReaches::kBytes) return reach;
   std::lock_guard<std::mutex> lock(k.mutex);
   k.entries.push_front({dem, key, reach});
-  size_t bytes = 0;
+  size_t bytes = 0, count = 0;  // the most recent first, until the bounds
   for (auto it = k.entries.begin(); it != k.entries.end();) {
     bytes += it->reach->cells.size();
-    const bool over = bytes > KeptReaches::kBytes || std::distance(k.entries.begin(), it) >= static_cast<long>(KeptReaches::kEntries);
+    const bool over = bytes > KeptReaches::kBytes || ++count > KeptReaches::kEntries;
     it = over ? k.entries.erase(it) : std::next(it);
   }
   k.stats.kept = k.entries.size();
