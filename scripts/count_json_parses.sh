@@ -2,7 +2,7 @@
 # Counts the JSON parses on a job's path through the service (issue 46): every DOM parse of nlohmann-json goes
 # through one of its `parser<...>::sax_parse_internal` instantiations, so a uprobe on each counts them all in
 # the server process, whoever calls them: from POST /jobs of a tiny inline scene until the worker has stored
-# its run, listed by the first function of ours on each parse's stack.
+# its run, listed by the first function of ours on each parse's stack; then jobs naming a stored scene.
 #
 #   scripts/count_json_parses.sh [BUILD]      # as root, with perf and sqlite3; BUILD defaults to build
 set -euo pipefail
@@ -61,4 +61,15 @@ submit_and_wait() {
 }
 
 echo "JSON parses from POST /jobs of an inline scene until the job is done, by caller:"
+count submit_and_wait
+
+# A job naming a stored scene: the scene stored first (POST /scenes, not counted), then two jobs on it. The
+# first job of a process parses the stored scene once (JobQueue::scene_document keeps it); the next do not.
+python3 -c 'import json,sys; print(json.dumps(json.load(open(sys.argv[1]))["scene"]))' "$WORK/job.json" >"$WORK/scene.json"
+scene_id=$(curl -sf -X POST -H 'Content-Type: application/json' --data @"$WORK/scene.json" \
+  "localhost:$PORT/api/v1/scenes" | sed -n 's/.*"id":\([0-9]*\).*/\1/p')
+echo "{\"scene_id\": $scene_id}" >"$WORK/job.json"
+echo "JSON parses from POST /jobs naming stored scene $scene_id until the job is done, the process's first such job:"
+count submit_and_wait
+echo "and the next:"
 count submit_and_wait

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "runout/terrain/terrain.hpp"
+#include "scene_count.hpp"
 #include "screening_run.hpp"
 
 namespace runout {
@@ -81,9 +82,9 @@ CostFeatures cost_features(const Scene& scene) {
         constexpr int D = std::decay_t<decltype(setup)>::kDim;
         const SolverConfig& c = setup.config;
         const double h = c.smoothing_length, dp = c.dp;
-        f.fluid = static_cast<double>(setup.fluid.size());
-        f.boundary_fixed = static_cast<double>(setup.boundary.size());
-        f.bed = setup.wall_source ? static_cast<double>(setup.wall_source->total()) : 0.0;
+        f.fluid = static_cast<double>(scene.counts.fluid);  // made or only counted (estimate_scene)
+        f.boundary_fixed = static_cast<double>(scene.counts.walls);
+        f.bed = static_cast<double>(scene.counts.bed);
         f.boundary = f.boundary_fixed + f.bed;
         f.neighbours = std::pow(h / dp, D);
         // Inlets: their buffers work from the start; what they deliver joins the flow linearly on average.
@@ -120,6 +121,17 @@ CostFeatures cost_features(const Scene& scene) {
       },
       scene.setup);
   return f;
+}
+
+SceneEstimate estimate_scene(const SceneSpec& spec) {
+  const Scene scene = count_scene(spec);
+  SceneEstimate e;
+  e.dimensions = scene.dimensions;
+  e.dp = scene.dp;
+  e.max_particles = scene.max_particles;
+  e.cost = cost_features(scene);
+  e.counts = scene.counts;
+  return e;
 }
 
 CostModel CostModel::calibrated() {

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "scene/readers.hpp"
+#include "scene_count.hpp"
 #include "screening_run.hpp"
 
 namespace runout {
@@ -27,9 +28,9 @@ void check_fidelity(const Fields& top, real dp) {
 }
 
 template <int D>
-Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir, bool particles) {
+Scene build(const json& j, Scene scene, const std::filesystem::path& base_dir, Make make) {
   Build<D> b(j, scene, base_dir);
-  b.particles = particles;
+  b.make = make;
   read_gravity(b);
   read_materials(b);
   read_limits(b);
@@ -68,7 +69,9 @@ SceneSpec read_scene(const json& j, const std::filesystem::path& base_dir) {
   return spec;
 }
 
-Scene build_scene(const SceneSpec& spec) {
+namespace {
+
+Scene build_as(const SceneSpec& spec, bool count_only) {
   const json& j = *spec.document;
   Scene scene;
   scene.name = spec.name;
@@ -78,12 +81,18 @@ Scene build_scene(const SceneSpec& spec) {
   scene.output = spec.output;
   scene.canonical_json = j.dump();
   scene.document = spec.document;
-  const bool particles = spec.model != "screening";
-  scene = scene.dimensions == 2 ? build<2>(j, std::move(scene), spec.base_dir, particles)
-                                : build<3>(j, std::move(scene), spec.base_dir, particles);
+  const Make make = spec.model == "screening" ? Make::nothing : count_only ? Make::counts : Make::particles;
+  scene = scene.dimensions == 2 ? build<2>(j, std::move(scene), spec.base_dir, make)
+                                : build<3>(j, std::move(scene), spec.base_dir, make);
   check_scene_model(j, scene);  // "model" and "screening" (screening_scene.cpp)
   return scene;
 }
+
+}  // namespace
+
+Scene build_scene(const SceneSpec& spec) { return build_as(spec, false); }
+
+Scene count_scene(const SceneSpec& spec) { return build_as(spec, true); }
 
 json parse_scene_document(const std::string& json_text) {
   try {

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "runout/common/sha256.hpp"
+#include "runout/scenarios/cost_model.hpp"
 #include "runout/scenarios/scene.hpp"
 
 #ifndef RUNOUT_VERSION
@@ -72,10 +73,11 @@ void apply_fidelity(json& j, const Fidelity& fidelity) {
 std::vector<SweepVariant> expand_ensemble(const Sweep& sw, const Ensemble& e) {
   const auto members = ensemble_members(e);
   std::vector<SweepVariant> out = ensemble_variants(sw.variants, members);
+  const nlohmann::json base = parse_scene_document(sw.base_json);
   for (size_t m : extreme_members(members)) {
     const SweepVariant& v = out[m * sw.variants.size()];
     try {
-      (void)parse_scene(resolve_variant(sw.base_json, v, sw.fidelity), sw.base_path.parent_path());
+      (void)estimate_scene(read_scene(resolve_variant(base, v, sw.fidelity), sw.base_path.parent_path()));
     } catch (const SceneError& err) {
       std::string values;
       for (const auto& pv : v.parameters) values += (values.empty() ? "" : ", ") + pv.pointer + " = " + std::to_string(pv.value);
@@ -237,7 +239,7 @@ Sweep parse_sweep(const std::string& json_text, const std::filesystem::path& bas
   // Every variant must make a valid scene at the sweep's fidelity; checked now, before anything runs.
   for (size_t k = 0; k < sw.variants.size(); ++k) {
     try {
-      (void)parse_scene(resolve_variant(sw.base_json, sw.variants[k], sw.fidelity), sw.base_path.parent_path());
+      (void)estimate_scene(read_scene(resolve_variant(base, sw.variants[k], sw.fidelity), sw.base_path.parent_path()));
     } catch (const SceneError& e) {
       throw SceneError("variants[" + std::to_string(k) + "] (" + sw.variants[k].name + "): " + e.field,
                        std::string(e.what()).substr(e.field.size() + 2));

@@ -86,6 +86,14 @@ void build(Planned& p, const fs::path& base_dir) {
   p.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// A level priced without its particles (--predict-only): its terrain built, its particles counted, timed.
+CostFeatures price(Planned& p, const fs::path& base_dir) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const SceneEstimate e = estimate_scene(read_scene(parse_scene_document(p.resolved), base_dir));
+  p.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return e.cost;
+}
+
 }  // namespace
 
 bool is_result_metric(const std::string& n) {
@@ -203,7 +211,7 @@ TradeoffResult run_tradeoff(RunStore& store, const TradeoffSpec& spec, const Tra
     p.resolved = resolve_variant(spec.base_json, spec.variant, p.fidelity);
     p.level.dp = json::parse(p.resolved).value("dp", 0.0);
     p.level.label = "dp=" + fmt(p.level.dp);
-    (void)parse_scene(p.resolved, spec.base_dir);  // refused here, with the field named, if it cannot run
+    (void)estimate_scene(read_scene(parse_scene_document(p.resolved), spec.base_dir));  // refused here if it cannot run
     plan_dp.push_back(p.level.dp);
     plan.push_back(std::move(p));
   }
@@ -229,7 +237,7 @@ TradeoffResult run_tradeoff(RunStore& store, const TradeoffSpec& spec, const Tra
       p.level.option = o;
       p.level.label = base.level.label + " " + o;
       try {
-        (void)parse_scene(p.resolved, spec.base_dir);
+        (void)estimate_scene(read_scene(j, spec.base_dir));
       } catch (const SceneError& e) {
         throw SceneError("options", "'" + o + "' makes the scene invalid: " + e.what());
       }
@@ -248,18 +256,17 @@ TradeoffResult run_tradeoff(RunStore& store, const TradeoffSpec& spec, const Tra
       continue;
     }
     const bool reset = reset_peak_memory();
-    build(p, spec.base_dir);
-    const Scene& scene = *p.scene;
-    const CostPrediction pred = model.predict(cost_features(scene), threads > 0 ? threads : omp_get_max_threads());
+    if (!opt.predict_only) build(p, spec.base_dir);
+    const CostFeatures features = opt.predict_only ? price(p, spec.base_dir) : cost_features(*p.scene);
+    const CostPrediction pred = model.predict(features, threads > 0 ? threads : omp_get_max_threads());
     L.predicted_steps = pred.steps;
     L.predicted_seconds = pred.seconds;
     L.predicted_fluid_peak = pred.fluid_peak;
     L.predicted_boundary_peak = pred.boundary_peak;
     if (opt.predict_only) {
-      L.fluid = cost_features(scene).fluid;
+      L.fluid = features.fluid;
       L.boundary = pred.particles - L.fluid;
       L.build_seconds = p.build_seconds;
-      p.scene.reset();
       if (opt.on_line)
         opt.on_line(L.label + ": " + fmt(pred.particles, "%.0f") + " particles described, predicted at most " +
                     fmt(pred.fluid_peak, "%.0f") + " flow and " + fmt(pred.boundary_peak, "%.0f") + " wall alive, " +
@@ -267,6 +274,7 @@ TradeoffResult run_tradeoff(RunStore& store, const TradeoffSpec& spec, const Tra
       result.levels.push_back(std::move(L));
       continue;
     }
+    const Scene& scene = *p.scene;
     const Manifest manifest = make_manifest(p.resolved, spec.base_dir, p.fidelity);
     std::optional<int64_t> id;
     if (const auto found = store.find_run(manifest.hash)) {

@@ -7,10 +7,13 @@
 #include <optional>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include <spdlog/spdlog.h>
 
 #include "commands.hpp"
 #include "mpi_sweep.hpp"
+#include "runout/scenarios/cost_model.hpp"
 #include "runout/scenarios/scene.hpp"
 #include "runout/scenarios/store.hpp"
 #include "runout/scenarios/study.hpp"
@@ -89,9 +92,11 @@ bool load(const SweepArgs& a, Sweep& sweep, SweepOptions& opt) {
       opt.fidelity = *f;
     }
     sweep = load_sweep(a.path);
-    if (opt.fidelity_override)
-      for (const auto& v : sweep.variants)
-        (void)parse_scene(resolve_variant(sweep.base_json, v, opt.fidelity), sweep.base_path.parent_path());
+    if (opt.fidelity_override) {
+      const nlohmann::json base = parse_scene_document(sweep.base_json);
+      for (const auto& v : sweep.variants)  // checked as the service checks a job: counted, not built
+        (void)estimate_scene(read_scene(resolve_variant(base, v, opt.fidelity), sweep.base_path.parent_path()));
+    }
   } catch (const SceneError& e) {
     spdlog::error("sweep refused: {}", e.what());
     return false;

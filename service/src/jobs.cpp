@@ -3,7 +3,10 @@
 
 #include "runout/scenarios/sqlite.hpp"
 
+#include <map>
 #include <mutex>
+
+#include <nlohmann/json.hpp>
 #include <vector>
 #include <stdexcept>
 
@@ -199,6 +202,8 @@ struct JobQueue::Impl {
   Conn writer;   // every write, in BEGIN IMMEDIATE transactions
   Conn reader;   // reads (WAL: never blocked by the writer)
   Conn monitor;  // GET /health's reads: not behind a long list on `reader`
+  std::mutex documents_mutex;
+  std::map<int64_t, std::shared_ptr<const nlohmann::json>> documents;  // scene_document's, by scene id
 };
 
 JobQueue::JobQueue(const std::filesystem::path& db_file) : impl_(std::make_unique<Impl>()) {
@@ -427,6 +432,21 @@ std::optional<SceneRow> JobQueue::get_scene(int64_t id) const {
   s.bind(1, id);
   if (!s.step()) return std::nullopt;
   return SceneRow{s.int64(0), s.text(1), s.text(2), s.text(3), s.text(4), s.text(5)};
+}
+
+std::shared_ptr<const nlohmann::json> JobQueue::scene_document(int64_t id) const {
+  {
+    std::lock_guard lock(impl_->documents_mutex);
+    if (auto it = impl_->documents.find(id); it != impl_->documents.end()) return it->second;
+  }
+  const auto row = get_scene(id);
+  if (!row) return nullptr;
+  auto doc = std::make_shared<const nlohmann::json>(nlohmann::json::parse(row->scene_json, nullptr, false));
+  if (doc->is_discarded()) throw std::runtime_error("stored scene " + std::to_string(id) + " is not JSON");
+  std::lock_guard lock(impl_->documents_mutex);
+  if (impl_->documents.size() >= 256) impl_->documents.erase(impl_->documents.begin());
+  impl_->documents.emplace(id, doc);
+  return doc;
 }
 
 std::optional<SceneRow> JobQueue::find_scene(const std::string& content_hash) const {

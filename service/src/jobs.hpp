@@ -30,7 +30,7 @@ struct JobSpec {
   int stage = 0;                     // a study sweep's stage (1 screening, 2 detailed); 0: not a study's job
   int64_t particles = 0;             // particle count of the resolved scene (fluid + boundary)
   double duration = 0;               // simulated seconds
-  // From the built scene, for POST /estimate (the cost model, docs/tradeoff.md); not stored with the job.
+  // From the priced scene (estimate_scene), for POST /estimate (the cost model, docs/tradeoff.md); not stored with the job.
   int64_t fluid_particles = 0, boundary_particles = 0;
   int dimensions = 0;
   double resolved_dp = 0;  // the particle spacing the scene was built at [m]
@@ -149,6 +149,10 @@ class JobQueue {
   std::pair<SceneRow, bool> put_scene(const std::string& name, const std::string& content_hash,
                                       const std::string& scene_json, const std::string& structures_json);
   std::optional<SceneRow> get_scene(int64_t id) const;
+  // A stored scene's document, parsed once per process (a stored scene never changes; the last 256 kept), so
+  // that a job naming it parses only its own request; nullptr when no scene has this id. Throws
+  // std::runtime_error if the stored text is not JSON.
+  std::shared_ptr<const nlohmann::json> scene_document(int64_t id) const;
   std::optional<SceneRow> find_scene(const std::string& content_hash) const;  // without scene_json
   // Without scene_json, oldest first; after_id: only ids above it (a page's cursor).
   std::vector<SceneRow> list_scenes(int64_t limit, const std::optional<int64_t>& after_id) const;

@@ -166,24 +166,19 @@ std::optional<std::string> parse_key(const json& body) {
   return k;
 }
 
-// Particle counts and what the cost model predicts from, from the built scene.
-void record_built_scene(const Scene& s, JobSpec& spec) {
-  spec.cost = cost_features(s);
-  std::visit(
-      [&](const auto& setup) {
-        spec.fluid_particles = static_cast<int64_t>(setup.fluid.size());
-        // Every wall particle the scene describes (a terrain's bed is laid near the flow: fewer are alive).
-        spec.boundary_particles =
-            static_cast<int64_t>(setup.boundary.size() + (setup.wall_source ? setup.wall_source->total() : 0));
-      },
-      s.setup);
+// A priced scene's particle counts and cost features, into the job spec.
+void record_estimate(const SceneEstimate& e, JobSpec& spec) {
+  spec.cost = e.cost;
+  spec.fluid_particles = e.counts.fluid;
+  // Every wall particle the scene describes (a terrain's bed is laid near the flow: fewer are alive).
+  spec.boundary_particles = e.counts.walls + e.counts.bed;
   if (spec.cost.model == "screening") {  // its own particles at most at once; its bed is a grid
     spec.fluid_particles = std::llround(spec.cost.fluid_peak);
     spec.boundary_particles = 0;
   }
   spec.particles = spec.fluid_particles + spec.boundary_particles;
-  spec.dimensions = s.dimensions;
-  spec.resolved_dp = s.dp;
+  spec.dimensions = e.dimensions;
+  spec.resolved_dp = e.dp;
 }
 
 // The files a scene names must be inside the scene directory after every symbolic link is followed (the
@@ -214,7 +209,7 @@ void check_contained(const json& scene, const std::string& path, const Limits& l
   }
 }
 
-// Validates a resolved scene with the scene validator, under the particle budget; the built scene's particle
+// Validates a resolved scene with the scene validator, under the particle budget; the priced scene's particle
 // counts and numerics go into `spec`.
 void validate_resolved(const json& resolved, const std::string& path, const Limits& limits, JobSpec& spec) {
   check_contained(resolved, path, limits);
@@ -233,7 +228,7 @@ void validate_resolved(const json& resolved, const std::string& path, const Limi
   const bool budget_binds = injectable && limits.particle_budget < own;
   if (budget_binds) j["limits"]["max_particles"] = limits.particle_budget;  // the validator checks it before building
   try {
-    record_built_scene(build_scene(read_scene(j, limits.scene_dir)), spec);
+    record_estimate(estimate_scene(read_scene(j, limits.scene_dir)), spec);
   } catch (const SceneError& e) {
     std::string msg = std::string(e.what()).substr(std::min(e.field.size() + 2, std::string(e.what()).size()));
     const std::string lim = "limits.max_particles = " + std::to_string(limits.particle_budget);
@@ -305,10 +300,10 @@ Base base_of(const json& body, const char* inline_key, const JobQueue& queue) {
     const json& v = body["scene_id"];
     if (!v.is_number_integer() || v.get<int64_t>() < 1)
       throw ApiError(422, "scene_id", "must be the id of a stored scene (an integer >= 1)");
-    const auto row = queue.get_scene(v.get<int64_t>());
-    if (!row) throw ApiError(404, "scene_id", "no stored scene with id " + std::to_string(v.get<int64_t>()));
-    b.scene = json::parse(row->scene_json);
-    b.scene_id = row->id;
+    const auto doc = queue.scene_document(v.get<int64_t>());  // parsed once per process
+    if (!doc) throw ApiError(404, "scene_id", "no stored scene with id " + std::to_string(v.get<int64_t>()));
+    b.scene = *doc;
+    b.scene_id = v.get<int64_t>();
     b.path = "";  // fields of a stored scene are named as in the scene
   } else {
     b.scene = body[inline_key];

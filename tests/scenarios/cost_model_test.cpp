@@ -5,6 +5,8 @@
 #include <cmath>
 #include <fstream>
 #include <string>
+#include <tuple>
+#include <variant>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -347,4 +349,58 @@ TEST(CostModel, ObservationFromStoredMetrics) {
   old.erase("cost_features");  // stored before the cost model
   EXPECT_FALSE(cost_observation_from_metrics(old.dump(), o));
   EXPECT_FALSE(cost_observation_from_metrics("not json", o));
+}
+
+// A scene priced for an estimate counts exactly the particles its build makes, and gives the build's features
+// and refusals: a 2D tank, the shipped flume (3D, its bed laid near the flow) and the flume with its bed laid
+// whole at the start (terrain.walls = "all").
+TEST(EstimateScene, CountsWhatTheBuildMakesAndRefusesWhatTheBuildRefuses) {
+  const std::string dir = std::string(RUNOUT_SOURCE_DIR) + "/scenarios/flume";
+  json flume = json::parse(std::ifstream(dir + "/flume.json"));
+  flume.erase("structures");  // the sweep's candidates overlap: layout C0
+  flume["dp"] = 0.05;          // its draft preset
+  json flume_all = flume;
+  flume_all["terrain"]["walls"] = "all";
+  for (const auto& [label, j, base] : {std::tuple{"tank", tank_2d(), std::string()}, std::tuple{"flume", flume, dir},
+                                       std::tuple{"flume, walls all", flume_all, dir}}) {
+    SCOPED_TRACE(label);
+    const SceneSpec spec = read_scene(j, base);
+    const Scene built = build_scene(spec);
+    const SceneEstimate e = estimate_scene(spec);
+    const CostFeatures f = cost_features(built);
+    std::visit(
+        [&](const auto& setup) {
+          EXPECT_EQ(e.counts.fluid, static_cast<int64_t>(setup.fluid.size()));
+          EXPECT_EQ(e.counts.walls, static_cast<int64_t>(setup.boundary.size()));
+          EXPECT_EQ(e.counts.bed, setup.wall_source ? static_cast<int64_t>(setup.wall_source->total()) : 0);
+        },
+        built.setup);
+    EXPECT_GT(e.counts.fluid, 0);
+    EXPECT_EQ(e.cost.fluid, f.fluid);
+    EXPECT_EQ(e.cost.boundary_fixed, f.boundary_fixed);
+    EXPECT_EQ(e.cost.bed, f.bed);
+    EXPECT_EQ(e.cost.fluid_peak, f.fluid_peak);
+    EXPECT_EQ(e.cost.dt0, f.dt0);
+    EXPECT_EQ(e.cost.passes, f.passes);
+    EXPECT_EQ(e.dimensions, built.dimensions);
+    EXPECT_EQ(e.dp, built.dp);
+
+    // One particle under the count: both refuse on dp with the same message.
+    json over = j;
+    over["limits"]["max_particles"] = e.counts.fluid + e.counts.walls - 1;
+    const SceneSpec over_spec = read_scene(over, base);
+    std::string built_refusal, priced_refusal;
+    try {
+      (void)build_scene(over_spec);
+    } catch (const SceneError& err) {
+      built_refusal = err.field + ": " + err.what();
+    }
+    try {
+      (void)estimate_scene(over_spec);
+    } catch (const SceneError& err) {
+      priced_refusal = err.field + ": " + err.what();
+    }
+    EXPECT_NE(built_refusal.find("dp: "), std::string::npos) << built_refusal;
+    EXPECT_EQ(priced_refusal, built_refusal);
+  }
 }

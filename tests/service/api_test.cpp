@@ -167,6 +167,24 @@ TEST_F(Api, OverTheConnectionLimitIsAProblemDocument) {
 }
 
 // A request's own fields are checked together: every invalid one is listed, not only the first.
+// A stored scene's document is kept once parsed (JobQueue::scene_document): every job naming it gets that scene,
+// and an id no scene has is refused on scene_id.
+TEST_F(Api, JobsNamingAStoredSceneGetThatSceneAndAnUnknownIdIsNotFound) {
+  start({"--workers", "0"});
+  const Reply scene = post("/scenes", tiny_scene("stored"));
+  ASSERT_EQ(scene.status, 201) << scene.text;
+  const int64_t sid = scene.body.at("id");
+  for (double dp : {0.02, 0.04}) {
+    const Reply job = post("/jobs", {{"scene_id", sid}, {"fidelity", {{"dp", dp}}}});
+    ASSERT_EQ(job.status, 201) << job.text;
+    const Reply got = get("/jobs/" + std::to_string(job.body.at("id").get<int64_t>()));
+    EXPECT_EQ(got.body.at("scene_id"), sid) << got.text;
+    EXPECT_EQ(got.body.at("scene").at("name"), "stored/none") << got.text;  // base/layout
+    EXPECT_EQ(got.body.at("scene").at("dp"), dp) << got.text;
+  }
+  expect_problem(post("/jobs", {{"scene_id", sid + 1}}), 404, "not-found", "/api/v1/jobs", "scene_id");
+}
+
 TEST_F(Api, EveryInvalidFieldIsListed) {
   start({"--workers", "0"});
   auto fields = [](const Reply& r) {

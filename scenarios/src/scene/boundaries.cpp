@@ -75,7 +75,7 @@ void add_terrain_walls(Build<D>& b) {
   b.scene.boundary_tags.push_back("terrain");
   for (const auto& st : b.tmodel->structures)
     if (st.tag) b.scene.boundary_tags.push_back(st.name);
-  if (!b.particles) return;
+  if (b.make == Make::nothing) return;
   for (size_t q = 0; q < b.tmodel->boundary.size(); ++q) {
     Vec<D> p;
     for (int d = 0; d < D; ++d) p[d] = b.tmodel->boundary[q][d];

@@ -16,19 +16,7 @@ namespace {
 template <int D>
 void default_domain(const Build<D>& b, SolverConfig& cfg) {
   const SceneSetup<D>& setup = b.setup;
-  Vec<D> lo = Vec<D>::Constant(1e300), hi = Vec<D>::Constant(-1e300);
-  for (size_t i = 0; i < setup.fluid.size(); ++i) {
-    lo = lo.cwiseMin(setup.fluid.position(i));
-    hi = hi.cwiseMax(setup.fluid.position(i));
-  }
-  for (size_t i = 0; i < setup.boundary.size(); ++i) {
-    lo = lo.cwiseMin(setup.boundary.position(i));
-    hi = hi.cwiseMax(setup.boundary.position(i));
-  }
-  // The walls laid near the flow count from the start: the domain is the same as with all of them laid.
-  if constexpr (D == 3) {
-    if (setup.wall_source && setup.wall_source->total() > 0) lo = lo.cwiseMin(setup.wall_source->lowest());
-  }
+  Vec<D> lo = b.lo, hi = b.hi;  // every particle's, made or counted (make_particles)
   for (const auto& in : setup.inlets) {
     // The buffer behind the plane is part of the scene.
     const real length = inlet_buffer_layers(cfg) * b.dp;
@@ -81,18 +69,20 @@ void read_periodic(const Fields& dom, SolverConfig& cfg) {
   }
 }
 
-// Every fluid particle starts inside the domain (above the top is allowed: the top is open).
+// Every fluid particle starts inside the domain (above the top is allowed: the top is open). The particles as
+// their lattices place them: the same whether the build makes them or counts them.
 template <int D>
-void check_inside(const SceneSetup<D>& setup, const SolverConfig& cfg) {
-  for (size_t i = 0; i < setup.fluid.size(); ++i) {
-    for (int d = 0; d < D; ++d) {
-      const real x = setup.fluid.pos[d][i];
-      if (x < cfg.domain_min[d] || (d < D - 1 && x > cfg.domain_max[d])) {
-        std::ostringstream s;
-        s << "fluid particle at (";
-        for (int e = 0; e < D; ++e) s << (e ? ", " : "") << setup.fluid.pos[e][i];
-        s << ") m is outside the domain: domain.min and domain.max must contain every particle";
-        throw SceneError("domain", s.str());
+void check_inside(const Build<D>& b, const SolverConfig& cfg) {
+  for (const auto& pf : b.pending) {
+    for (const Vec<D>& x : pf.lattice.points) {
+      for (int d = 0; d < D; ++d) {
+        if (x[d] < cfg.domain_min[d] || (d < D - 1 && x[d] > cfg.domain_max[d])) {
+          std::ostringstream s;
+          s << "fluid particle at (";
+          for (int e = 0; e < D; ++e) s << (e ? ", " : "") << x[e];
+          s << ") m is outside the domain: domain.min and domain.max must contain every particle";
+          throw SceneError("domain", s.str());
+        }
       }
     }
   }
@@ -115,7 +105,7 @@ void read_domain_section(const Build<D>& b, SolverConfig& cfg) {
   if (dom.has("periodic")) read_periodic<D>(dom, cfg);
   FaceMask<D> outflow = parse_faces<D>(dom, "outflow", FaceMask<D>{});
   for (int d = 0; d < D; ++d) cfg.outflow[d] = outflow[d];
-  check_inside(b.setup, cfg);
+  check_inside(b, cfg);
 }
 
 }  // namespace

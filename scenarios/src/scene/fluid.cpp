@@ -119,39 +119,76 @@ void check_fluid_placement(const Build<D>& b) {
   if (b.pending.size() > 1) check_no_overlap(b);
 }
 
+namespace {
+
+template <int D>
+void widen(Build<D>& b, const Vec<D>& p) {
+  b.lo = b.lo.cwiseMin(p);
+  b.hi = b.hi.cwiseMax(p);
+}
+
+// The bed laid whole at the start (terrain.walls = "all"), after the other walls: with the normals its tiles
+// bring (the other walls' are estimated); counted only, tile by tile, for an estimate.
+void lay_whole_bed(Build<3>& b, real bmass) {
+  SceneSetup<3>& setup = b.setup;
+  const bool make = b.make == Make::particles;
+  if (make) setup.boundary_normals.assign(setup.boundary.size(), Vec<3>::Zero());
+  std::vector<Vec<3>> pos, normals;
+  std::vector<uint32_t> tags;
+  for (int64_t t = 0; t < b.bed_source->tiles().count(); ++t) {
+    const size_t first = pos.size();  // lay appends
+    b.bed_source->lay(t, pos, normals, tags);
+    for (size_t k = first; k < pos.size(); ++k) widen(b, pos[k]);
+    b.scene.counts.walls += static_cast<int64_t>(pos.size() - first);
+    if (!make) pos.clear(), normals.clear(), tags.clear();
+  }
+  if (!make) return;
+  for (size_t k = 0; k < pos.size(); ++k) setup.boundary.add(pos[k], b.cfg.boundary_density, bmass, 0, tags[k]);
+  setup.boundary_normals.insert(setup.boundary_normals.end(), normals.begin(), normals.end());
+}
+
+}  // namespace
+
 // Fluid particles, with a hydrostatic initial density (less start-up shock than rho0 everywhere), and the
-// boundary particles at the boundary density; then the exact count against the limit.
+// boundary particles at the boundary density, made or only counted (Scene::counts, the same either way); then
+// the count against the limit.
 template <int D>
 void make_particles(Build<D>& b) {
   const SolverConfig& cfg = b.cfg;
   SceneSetup<D>& setup = b.setup;
   const real dp = b.dp;
   setup.max_particles = b.scene.max_particles;
-  if (!b.particles) return;  // the screening rung's particles are checked against the limit by check_scene_model
+  if (b.make == Make::nothing) return;  // the screening rung's particles are checked against the limit by check_scene_model
+  const bool make = b.make == Make::particles;
+  ParticleCounts& n = b.scene.counts;
   for (const auto& pf : b.pending) {
     const real rho0 = setup.materials[pf.material].density;
     const TaitEOS eos(cfg.speed_of_sound, rho0, cfg.eos_gamma);
     for (size_t q = 0; q < pf.lattice.points.size(); ++q) {
+      widen(b, pf.lattice.points[q]);
+      if (!make) continue;
       const real p = rho0 * b.g_mag * pf.lattice.depth[q];
       const real rho = eos.density(p);
       setup.fluid.add(pf.lattice.points[q], rho, rho0 * std::pow(dp, D), pf.material, 0);
     }
+    n.fluid += static_cast<int64_t>(pf.lattice.points.size());
   }
   const real bmass = cfg.boundary_density * std::pow(dp, D);
-  for (const auto& [p, tag] : b.bparticles) setup.boundary.add(p, cfg.boundary_density, bmass, 0, tag);
-  if constexpr (D == 3) {
-    if (b.bed_source && b.walls_near_flow) setup.wall_source = b.bed_source;
-    if (b.bed_source && !b.walls_near_flow) {
-      // Laid whole: the bed's normals as its tiles would bring them; the other walls' are estimated.
-      std::vector<Vec<3>> pos, normals;
-      std::vector<uint32_t> tags;
-      for (int64_t t = 0; t < b.bed_source->tiles().count(); ++t) b.bed_source->lay(t, pos, normals, tags);
-      setup.boundary_normals.assign(setup.boundary.size(), Vec<3>::Zero());
-      for (size_t k = 0; k < pos.size(); ++k) setup.boundary.add(pos[k], cfg.boundary_density, bmass, 0, tags[k]);
-      setup.boundary_normals.insert(setup.boundary_normals.end(), normals.begin(), normals.end());
-    }
+  for (const auto& [p, tag] : b.bparticles) {
+    widen(b, p);
+    if (make) setup.boundary.add(p, cfg.boundary_density, bmass, 0, tag);
   }
-  const long total = static_cast<long>(setup.fluid.size() + setup.boundary.size());
+  n.walls += static_cast<int64_t>(b.bparticles.size());
+  if constexpr (D == 3) {
+    // The walls laid near the flow count from the start: the domain is the same as with all of them laid.
+    if (b.bed_source && b.walls_near_flow) {
+      if (make) setup.wall_source = b.bed_source;
+      n.bed = b.bed_source->total();
+      if (n.bed > 0) b.lo = b.lo.cwiseMin(b.bed_source->lowest());
+    }
+    if (b.bed_source && !b.walls_near_flow) lay_whole_bed(b, bmass);
+  }
+  const long total = static_cast<long>(n.fluid + n.walls);
   if (total > b.scene.max_particles)
     throw SceneError("dp", "the scene has " + std::to_string(total) + " particles, over limits.max_particles = " +
                                std::to_string(b.scene.max_particles));

@@ -179,6 +179,8 @@ OutputSettings read_output(const json& j, real duration);
 // "name[k]" for an element of an array section.
 inline std::string item(const std::string& section, size_t k) { return section + "[" + std::to_string(k) + "]"; }
 
+enum class Make { particles, counts, nothing };
+
 // What the section readers share while they build one scene.
 template <int D>
 struct Build {
@@ -207,8 +209,13 @@ struct Build {
   // the start after the other boundary particles ("all").
   std::shared_ptr<const WallSource<3>> bed_source;
   bool walls_near_flow = true;
-  bool particles = true;  // false: the screening model runs the scene, and makes no 3D particle (no bed source)
+  // What the build does with the 3D particles: make them (a run), count them only (an estimate: no particle
+  // arrays, no bed laid), or neither (the screening model runs the scene and makes its own; no bed source).
+  Make make = Make::particles;
   real bottom = 0;                                       // the lowest particle (after the boundaries)
+  // The box of every particle the scene starts with (fluid, walls, the bed laid whole, the lowest bed particle
+  // when it is laid near the flow), made or counted: the default domain's.
+  Vec<D> lo = Vec<D>::Constant(1e300), hi = Vec<D>::Constant(-1e300);
 };
 
 // The sections, in the order build<D> reads them (each refuses what it cannot use, naming the field).

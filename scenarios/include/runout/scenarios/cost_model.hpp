@@ -63,6 +63,18 @@ struct CostFeatures {
 };
 CostFeatures cost_features(const Scene& scene);
 
+// A read scene priced without making its particles: build_scene's terrain, checks and refusals (every one a
+// build would give, the particle limit included), with the 3D particles counted, not made (no particle arrays,
+// no bed laid). What an estimate, a refusal and a sweep's check of its variants need; a run builds the scene.
+struct SceneEstimate {
+  int dimensions = 2;
+  real dp = 0;
+  long max_particles = 0;
+  ParticleCounts counts;  // the 3D particles (none for a screening scene: its own are in cost.fluid_peak)
+  CostFeatures cost;
+};
+SceneEstimate estimate_scene(const SceneSpec& spec);
+
 struct CostCoefficients {
   double step_ratio = 1.2;  // k: steps / (duration / dt0)
   double a_fluid = 0;       // [s] per fluid particle x (h/dp)^D x pass, one thread

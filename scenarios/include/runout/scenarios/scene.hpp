@@ -43,6 +43,15 @@ struct OutputSettings {
 };
 
 // A parsed, validated scene: run settings plus the engine setup for its dimension.
+// The 3D particles a scene starts with, as its build counts them (the same whether it makes them or prices the
+// scene, estimate_scene): flow particles, walls alive from the start (a terrain's bed laid whole included), and
+// the bed a terrain's wall source can lay near the flow. A screening scene counts none: its rung makes its own.
+struct ParticleCounts {
+  int64_t fluid = 0;
+  int64_t walls = 0;
+  int64_t bed = 0;
+};
+
 struct Scene {
   std::string name;
   int dimensions = 2;
@@ -53,6 +62,7 @@ struct Scene {
   std::vector<std::string> boundary_tags;  // tag index -> name (index 0 unused)
   std::vector<MonitorSpec> monitors;       // in the run's frame (terrain: local coordinates)
   std::variant<SceneSetup<2>, SceneSetup<3>> setup;
+  ParticleCounts counts;
   // Terrain scenes: the built terrain (DEM, corridor, structures, zones), in the run's local frame.
   std::shared_ptr<const terrain::TerrainModel> terrain;
   // The scene as given (canonical JSON text), kept for manifests, and the same document as read, so that what
