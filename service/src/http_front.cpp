@@ -22,29 +22,8 @@ bool field_byte(char c) {
   return u == '\t' || (u >= 0x20 && u != 0x7f);
 }
 
-int hexval(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
-
-// Percent-decoding as httplib's decode_url: %XX becomes the byte, anything else is kept as it is.
-std::string decode(const std::string& s, bool plus_as_space) {
-  std::string out;
-  out.reserve(s.size());
-  for (size_t i = 0; i < s.size(); ++i) {
-    if (s[i] == '%' && i + 2 < s.size() && hexval(s[i + 1]) >= 0 && hexval(s[i + 2]) >= 0) {
-      out.push_back(static_cast<char>(hexval(s[i + 1]) * 16 + hexval(s[i + 2])));
-      i += 2;
-    } else if (plus_as_space && s[i] == '+') {
-      out.push_back(' ');
-    } else {
-      out.push_back(s[i]);
-    }
-  }
-  return out;
-}
+// Percent-decoding (and '+' as a space in a query) by httplib, whose Request the handlers take.
+std::string decode(const std::string& s, bool plus_as_space) { return httplib::detail::decode_url(s, plus_as_space); }
 
 // The query string, strictly: name=value pairs separated by '&', each name once, exactly one '=' in each.
 void parse_query(const std::string& q, httplib::Params& params) {

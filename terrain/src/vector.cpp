@@ -6,6 +6,7 @@
 #include <cmath>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 
 #include <cpl_error.h>
@@ -14,6 +15,8 @@
 #include <ogr_geometry.h>
 #include <ogr_spatialref.h>
 #include <ogrsf_frmts.h>
+
+#include "shape_cache.hpp"
 
 namespace runout::terrain {
 namespace {
@@ -218,8 +221,10 @@ std::vector<Polyline> split_rings(const Polyline& path) {
   return rings;
 }
 
-VectorShape read_vector_shape(const LayerRef& ref, ShapeKind kind, const std::string& working_crs_wkt,
-                              const std::string& field) {
+namespace {
+
+VectorShape read_shape_from_file(const LayerRef& ref, ShapeKind kind, const std::string& working_crs_wkt,
+                                  const std::string& field) {
   QuietGdal quiet;
   const Context c{ref, field};
   VectorDataset ds = open_vector(c);
@@ -237,6 +242,19 @@ VectorShape read_vector_shape(const LayerRef& ref, ShapeKind kind, const std::st
   s.features = gs.size();
   for (const auto& p : s.path)
     if (!std::isfinite(p[0]) || !std::isfinite(p[1])) c.fail("a vertex is not finite after reprojection");
+  return s;
+}
+
+}  // namespace
+
+VectorShape read_vector_shape(const LayerRef& ref, ShapeKind kind, const std::string& working_crs_wkt,
+                              const std::string& field) {
+  // A shape kept under these bytes and settings passed every check of read_shape_from_file when it was read.
+  const std::string key = detail::shape_key(ref, kind, working_crs_wkt);
+  if (!key.empty())
+    if (std::optional<VectorShape> kept = detail::cached_shape(key)) return *kept;
+  VectorShape s = read_shape_from_file(ref, kind, working_crs_wkt, field);
+  if (!key.empty()) detail::keep_shape(key, s);
   return s;
 }
 

@@ -234,3 +234,37 @@ TEST(VectorLayer, WorkingCrsIsTheDemsOrTheNamedOne) {
   EXPECT_TRUE(a.IsSame(&b));
   expect_refused([&] { working_crs_wkt((tmp.path / "missing.tif").string(), {}); }, "terrain.dem", "cannot open");
 }
+
+// A layer read once is answered from the keep while its bytes stay the same; a file rewritten with another
+// geometry is read afresh, and so is a shapefile whose sidecar (.dbf: the filter's attribute) changed.
+TEST(VectorLayer, AShapeIsReadOnceWhileItsFilesStayTheSame) {
+  TempDir tmp;
+  const fs::path gpkg = tmp.path / "axes.gpkg";
+  write_layer(gpkg, "GPKG", "dams", "EPSG:32616", {{"LINESTRING (500000 4000000, 500010 4000000)", "Dam1"}});
+  const LayerRef ref{gpkg.string(), "dams", "", ""};
+  const ShapeCacheStats s0 = shape_cache_stats();
+  const VectorShape first = read_vector_shape(ref, ShapeKind::line, utm16(), "structures[0].axis");
+  const VectorShape again = read_vector_shape(ref, ShapeKind::line, utm16(), "structures[0].axis");
+  const ShapeCacheStats s1 = shape_cache_stats();
+  EXPECT_EQ(s1.misses - s0.misses, 1);
+  EXPECT_EQ(s1.hits - s0.hits, 1);
+  EXPECT_EQ(again.path, first.path);
+
+  fs::remove(gpkg);
+  write_layer(gpkg, "GPKG", "dams", "EPSG:32616", {{"LINESTRING (500000 4000000, 500020 4000000)", "Dam1"}});
+  const VectorShape changed = read_vector_shape(ref, ShapeKind::line, utm16(), "structures[0].axis");
+  EXPECT_EQ(shape_cache_stats().misses - s1.misses, 1);
+  ASSERT_EQ(changed.path.size(), 2u);
+  EXPECT_NEAR(changed.path[1][0] - changed.path[0][0], 20.0, 1e-6);
+
+  // A shapefile: the filter matches Dam1 by its attribute in the .dbf; renaming it there changes the answer.
+  const fs::path shp = tmp.path / "axes.shp";
+  write_layer(shp, "ESRI Shapefile", "axes", "EPSG:32616",
+              {{"LINESTRING (500000 4000000, 500010 4000000)", "Dam1"}, {"LINESTRING (0 0, 1 1)", "Dam2"}});
+  const LayerRef by_id{shp.string(), "", "id = 'Dam1'", ""};
+  EXPECT_EQ(read_vector_shape(by_id, ShapeKind::line, utm16(), "structures[0].axis").path.size(), 2u);
+  for (const char* ext : {".shp", ".shx", ".dbf", ".prj", ".cpg"}) fs::remove(fs::path(shp).replace_extension(ext));
+  write_layer(shp, "ESRI Shapefile", "axes", "EPSG:32616", {{"LINESTRING (500000 4000000, 500010 4000000)", "Dam3"}});
+  expect_refused([&] { read_vector_shape(by_id, ShapeKind::line, utm16(), "structures[0].axis"); },
+                 "structures[0].axis", "matches no feature");
+}

@@ -43,8 +43,17 @@ struct VectorShape {
 // filter GDAL refuses or that matches no feature (or more than one where one is needed), a layer without CRS
 // and no `crs`, a CRS that cannot be transformed, a geometry of the wrong type, an empty, too short or
 // invalid (self-intersecting, overlapping parts) geometry.
+// A shape read once is kept by the bytes of its file and sidecars and the settings asked for (terrain/src/
+// shape_cache.hpp), so checking, pricing and mapping many jobs on one layer file opens it once per process.
 VectorShape read_vector_shape(const LayerRef& ref, ShapeKind kind, const std::string& working_crs_wkt,
                               const std::string& field);
+
+// What the kept shapes did since the process started: a read answered from the keep, or from the file.
+struct ShapeCacheStats {
+  long hits = 0, misses = 0;
+  size_t shapes = 0;
+};
+ShapeCacheStats shape_cache_stats();
 
 // The CRS (WKT) load_dem(path, options) would return its grid in, from the raster's header only: the named
 // target CRS, the DEM's own projected CRS, or the UTM zone of a geographic DEM's centre. Throws TerrainError
