@@ -64,4 +64,19 @@ void check_scene_shapes(const json& scene, const std::string& path) {
   }
 }
 
+bool apply_particle_budget(json& scene, long budget) {
+  long own = kDefaultMaxParticles;
+  if (scene.contains("limits")) {
+    const json& l = scene["limits"];
+    if (!l.is_object()) return false;
+    if (l.contains("max_particles")) {
+      if (!l["max_particles"].is_number_integer()) return false;
+      own = l["max_particles"].get<long>();
+    }
+  }
+  if (budget >= own) return false;
+  scene["limits"]["max_particles"] = budget;
+  return true;
+}
+
 }  // namespace runout

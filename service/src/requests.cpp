@@ -209,26 +209,17 @@ void check_contained(const json& scene, const std::string& path, const Limits& l
   }
 }
 
-// Validates a resolved scene with the scene validator, under the particle budget; the priced scene's particle
-// counts and numerics go into `spec`.
-void validate_resolved(const json& resolved, const std::string& path, const Limits& limits, JobSpec& spec) {
+// Reads a resolved scene (its name and duration into `spec`) and, when `price`, prices it under the particle
+// budget (estimate_scene: every check of a build; its particle counts and cost features into `spec`).
+void read_resolved(const json& resolved, const std::string& path, const Limits& limits, bool price, JobSpec& spec) {
   check_contained(resolved, path, limits);
   json j = resolved;
-  long own = 5'000'000;
-  bool injectable = !j.contains("limits");
-  if (j.contains("limits") && j["limits"].is_object()) {
-    const json& l = j["limits"];
-    if (!l.contains("max_particles")) {
-      injectable = true;
-    } else if (l["max_particles"].is_number_integer()) {
-      injectable = true;
-      own = l["max_particles"].get<long>();
-    }
-  }
-  const bool budget_binds = injectable && limits.particle_budget < own;
-  if (budget_binds) j["limits"]["max_particles"] = limits.particle_budget;  // the validator checks it before building
+  const bool budget_binds = apply_particle_budget(j, limits.particle_budget);  // checked before building
   try {
-    record_estimate(estimate_scene(read_scene(j, limits.scene_dir)), spec);
+    const SceneSpec scene = read_scene(j, limits.scene_dir);
+    spec.scene_name = scene.name;
+    spec.duration = scene.duration;
+    if (price) record_estimate(estimate_scene(scene), spec);
   } catch (const SceneError& e) {
     std::string msg = std::string(e.what()).substr(std::min(e.field.size() + 2, std::string(e.what()).size()));
     const std::string lim = "limits.max_particles = " + std::to_string(limits.particle_budget);
@@ -249,8 +240,8 @@ void validate_resolved(const json& resolved, const std::string& path, const Limi
 }
 
 // Resolves `base` with a layout at a fidelity (resolve_variant), checks it; the job spec.
-// `parameters`: an ensemble member's values; `check` false resolves without building the scene (the files are
-// still checked), the particles and cost left as given in `spec`.
+// `parameters`: an ensemble member's values; `check` false reads the scene without pricing it (its declared fields
+// and files are still checked), the particles and cost left as given in `spec`.
 JobSpec make_job(const json& base, const std::string& path, const std::optional<std::vector<std::string>>& layout,
                  const std::string& variant, const Fidelity& fidelity, const Limits& limits,
                  const std::vector<ParameterValue>& parameters = {}, bool check = true, JobSpec spec = {}) {
@@ -271,16 +262,11 @@ JobSpec make_job(const json& base, const std::string& path, const std::optional<
   } catch (const json::exception& e) {
     throw ApiError(422, path, std::string("cannot apply the layout and fidelity: ") + e.what());
   }
-  if (check)
-    validate_resolved(r, path, limits, spec);
-  else
-    check_contained(r, path, limits);
+  read_resolved(r, path, limits, check, spec);
   spec.scene_json = r.dump();
-  spec.scene_name = r.value("name", std::string("scene"));
   spec.fidelity = fidelity.dp ? "custom" : fidelity.name;
   spec.dp = fidelity.dp;
   spec.variant = layout ? variant : "";
-  spec.duration = r.contains("duration") && r["duration"].is_number() ? r["duration"].get<double>() : 0.0;
   return spec;
 }
 

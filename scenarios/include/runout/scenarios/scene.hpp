@@ -52,12 +52,15 @@ struct ParticleCounts {
   int64_t bed = 0;
 };
 
+// A scene's particle limit where its limits section sets none.
+constexpr long kDefaultMaxParticles = 5'000'000;
+
 struct Scene {
   std::string name;
   int dimensions = 2;
   real duration = 1.0;
   real dp = 0.01;
-  long max_particles = 5'000'000;
+  long max_particles = kDefaultMaxParticles;  // limits.max_particles
   OutputSettings output;
   std::vector<std::string> boundary_tags;  // tag index -> name (index 0 unused)
   std::vector<MonitorSpec> monitors;       // in the run's frame (terrain: local coordinates)

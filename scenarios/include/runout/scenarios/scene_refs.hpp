@@ -25,4 +25,9 @@ std::vector<std::string> structure_names(const nlohmann::json& scene);
 // object, fidelity an object of {dp, numerics} objects. Throws SceneError naming the field (prefixed with path).
 void check_scene_shapes(const nlohmann::json& scene, const std::string& path);
 
+// Puts a particle budget into the scene's limits.max_particles where it is tighter than the scene's own limit
+// (kDefaultMaxParticles where the scene sets none), so that the validator refuses a scene over it before building;
+// true when it did. A limits section of the wrong shape is left as it is, for the validator to refuse.
+bool apply_particle_budget(nlohmann::json& scene, long budget);
+
 }  // namespace runout
