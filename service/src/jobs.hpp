@@ -149,9 +149,9 @@ class JobQueue {
   std::pair<SceneRow, bool> put_scene(const std::string& name, const std::string& content_hash,
                                       const std::string& scene_json, const std::string& structures_json);
   std::optional<SceneRow> get_scene(int64_t id) const;
-  // A stored scene's document, parsed once per process (a stored scene never changes; the last 256 kept), so
-  // that a job naming it parses only its own request; nullptr when no scene has this id. Throws
-  // std::runtime_error if the stored text is not JSON.
+  // A stored scene's document, parsed once per process (a stored scene never changes; at most 256 kept, the
+  // lowest ids out first), so that a job naming it parses only its own request; nullptr when no scene has this
+  // id. Throws std::runtime_error if the stored text is not JSON.
   std::shared_ptr<const nlohmann::json> scene_document(int64_t id) const;
   std::optional<SceneRow> find_scene(const std::string& content_hash) const;  // without scene_json
   // Without scene_json, oldest first; after_id: only ids above it (a page's cursor).
