@@ -148,7 +148,8 @@ Action add_tradeoff(CLI::App& app) {
                                           "(default runs/tradeoff/<name>)");
   cmd->add_option("--db", c->db, "Run store (SQLite); stored levels are reused")->capture_default_str();
   cmd->add_flag("--predict-only", c->predict_only,
-                "Build each level and print its particles and the cost model's steps and time; run nothing");
+                "Price each level (its terrain built, its particles counted, not made) and print its particles and "
+                "the cost model's steps and time; run nothing");
   return [c](const char*) {
     stop_on_signals();
     return tradeoff(*c, &g_stop);
