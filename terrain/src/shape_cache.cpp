@@ -2,8 +2,8 @@
 #include "shape_cache.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <filesystem>
-#include <fstream>
 #include <list>
 #include <map>
 #include <mutex>
@@ -55,18 +55,14 @@ std::string shape_key(const LayerRef& ref, ShapeKind kind, const std::string& wo
   if (ref.path.rfind("/vsi", 0) == 0 || ext == ".vrt") return "";
   std::error_code ec;
   if (!fs::is_regular_file(file, ec)) return "";
-  Sha256 h;
-  std::vector<char> buf(1 << 16);
-  for (const fs::path& f : layer_files(file)) {
-    const std::string n = f.filename().string();
-    h.update(n.c_str(), n.size() + 1);
-    std::ifstream in(f, std::ios::binary);
-    if (!in) return "";
-    while (in.read(buf.data(), static_cast<std::streamsize>(buf.size())) || in.gcount() > 0)
-      h.update(buf.data(), static_cast<size_t>(in.gcount()));
-  }
   const std::string sep(1, '\0');
-  return h.hex() + sep + ref.name + sep + ref.where + sep + ref.crs + sep + working_crs_wkt + sep +
+  std::string files;  // each file's name and digest
+  try {
+    for (const fs::path& f : layer_files(file)) files += f.filename().string() + sep + file_sha256(f.string()) + sep;
+  } catch (const std::exception&) {
+    return "";  // unreadable: read through OGR, which names the error
+  }
+  return sha256_hex(files) + sep + ref.name + sep + ref.where + sep + ref.crs + sep + working_crs_wkt + sep +
          std::to_string(static_cast<int>(kind));
 }
 
