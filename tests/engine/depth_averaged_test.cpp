@@ -64,13 +64,16 @@
 //         (First run: 88 steps at the default CFL, travel +1.4 %: the travel part is the known failure
 //         DISABLED_RigidBlockTravelsWithinOnePercent, at the default step, for the reason B3's is: first-order
 //         positions. Capping the step to get the declared step count was tried and undone: a setting moved after
-//         the result.) On the plane
+//         the result. Promoted 2026-12-07 when the model's step became a kick-drift-kick leapfrog, second order in
+//         the positions and exact under a constant acceleration: travel 4.7126 m against 4.7126 m, 87 steps.)
+//         On the plane
 //         as a formula, as a callable, and as a DEM grid (plane sampled on 5 m nodes, the fall line turned
 //         40 deg in plan).
 //     B3: a sheet at 5 m/s on flat ground (mu = 0.5) stops after u0 / (mu g) and stays stopped: at t = 2 s
 //         speed exactly 0, travel within 1 % of u0^2 / (2 mu g).
 //         (First run, default CFL, ~80 steps: stopped exactly, travel -2.4 %: the travel part is the known
-//         failure DISABLED_StoppingSheetTravelsWithinOnePercent: symplectic Euler's positions are first order.)
+//         failure DISABLED_StoppingSheetTravelsWithinOnePercent: symplectic Euler's positions are first order.
+//         Promoted 2026-12-07 with the leapfrog step: travel 2.5484 m against 2.5484 m, 63 steps.)
 //     B4: Voellmy (mu = 0.155, xi = 500 m/s^2, h0 = 1 m, theta = 30 deg): after 30 s (eight time constants)
 //         the speed within 1 % of the uniform-flow speed sqrt(xi h0 (sin - mu cos)).
 // (d) Declared with this case, before its first run: a 10 m x 10 m x 2 m pile (dp = 0.5 m) released into a
@@ -291,8 +294,8 @@ void expect_rigid_block(const da::Bed& bed, real theta, real phi, bool travel_to
   }
 }
 
-// Known failure (tests/CMakeLists.txt, WILL_FAIL): B2's travel within 1 % at the default step (88 steps, +1.4 %).
-TEST(DepthAveragedSheet, DISABLED_RigidBlockTravelsWithinOnePercent) {
+// B2's travel within 1 % at the default step (a known failure at the symplectic-Euler step: 88 steps, +1.4 %).
+TEST(DepthAveragedSheet, RigidBlockTravelsWithinOnePercent) {
   const real theta = deg(30);
   expect_rigid_block(da::Bed::plane(2.0, -std::tan(theta), 0), theta, 0, true);
 }
@@ -346,8 +349,8 @@ real stopping_sheet_travel(real mu, real u0) {
 
 TEST(DepthAveragedSheet, FrictionStopsASheetWithoutReversingIt) { stopping_sheet_travel(0.5, 5.0); }
 
-// B3's travel: the known failure (first-order positions at the default step).
-TEST(DepthAveragedSheet, DISABLED_StoppingSheetTravelsWithinOnePercent) {
+// B3's travel within 1 % at the default step (a known failure at the symplectic-Euler step: -2.4 %).
+TEST(DepthAveragedSheet, StoppingSheetTravelsWithinOnePercent) {
   const real mu = 0.5, u0 = 5.0, expected = u0 * u0 / (2 * mu * kG);
   EXPECT_NEAR(stopping_sheet_travel(mu, u0), expected, 0.01 * expected) << "B3: travel";
 }

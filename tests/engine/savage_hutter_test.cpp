@@ -52,6 +52,9 @@
 // and the interior (h_a > 1 m) 0.90 / 0.65 / 0.48 %: the thin edge, where the adaptive kernel grows towards
 // its cap 4 h_k0, converges slowest. A 4x smaller step (cfl 0.05) lowers every error by 20-30 % but leaves the
 // order at 0.45 / 0.36, so the first-order step is a part, not the cause.
+// At the leapfrog step (2026-12-07, second-order positions, default cfl): L2 h 1.28 / 0.86 / 0.69 %, L2 h u
+// 1.37 / 0.98 / 0.83 %, order 0.45 / 0.36, the figures of the 4x smaller step above: the step's share is gone
+// and the rim's remains, so this stays a known failure.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -360,7 +363,8 @@ void expect_errors_fall(bool order_too) {
 
 TEST(SavageHutterSimilarity, ErrorsFallAsParticlesAreAdded) { expect_errors_fall(false); }
 
-// Known failure (tests/CMakeLists.txt, WILL_FAIL): S2's order, 0.38 (h) and 0.32 (h u) at the first run.
+// Known failure (tests/CMakeLists.txt, WILL_FAIL): S2's order, 0.38 (h) and 0.32 (h u) at the first run, 0.45 and
+// 0.36 at the leapfrog step.
 TEST(SavageHutterSimilarity, DISABLED_ErrorsFallAtOrderOneHalf) { expect_errors_fall(true); }
 
 // Savage and Hutter's earth-pressure coefficients (issue 44 item 1; AvaFrame's flagEarth = True with the ini's

@@ -148,7 +148,7 @@ class Model {
   ~Model();
   Model(Model&&) noexcept;
 
-  // One symplectic-Euler step with the CFL step; returns dt. Throws SimulationError on a non-finite value.
+  // One kick-drift-kick leapfrog step with the CFL step; returns dt. Throws SimulationError on a non-finite value.
   real step();
   // Steps until time() reaches t exactly (the last step is shortened).
   void advance_to(real t);
@@ -172,9 +172,10 @@ class Model {
   struct Impl;
   real step_to(real t_limit);
   void refresh();
-  real accelerations(real t_limit);
+  real accelerations();
   Vec2 savage_hutter_gradient(size_t i, real& k_max) const;
-  void apply_friction_and_move(real dt);
+  void kick(real dt);
+  void drift(real dt);
   void check_finite() const;
   Config config_;
   Bed bed_;
@@ -183,6 +184,9 @@ class Model {
   real h_kernel_max_ = 0;  // the largest h_k,i now (thickness_at's search)
   real time_ = 0;
   size_t steps_ = 0;
+  // The accelerations (Impl::ax, ay, az) are those of the particles as they stand, and the step they allow.
+  bool accelerations_current_ = false;
+  real next_dt_ = 0;
   std::unique_ptr<BasalFriction> friction_;
   std::unique_ptr<Impl> impl_;
 };
