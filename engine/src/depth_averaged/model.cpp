@@ -246,10 +246,10 @@ void Model::advance_to(real t) {
 
 // Kick-drift-kick leapfrog: half the step's velocity change (gravity, pressure, friction) at the old positions,
 // the move with that mid-step velocity, the other half at the new positions. Positions are second order (exact
-// under a constant acceleration, as a sliding or stopping block: symplectic Euler's were first order, off by
-// a t dt / 2), and the scheme stays symplectic for the pressure term's oscillations, which a position update
-// from the mean of the old and new velocities is not. The accelerations of the new positions serve the next
-// step's first half, so a step costs one thickness pass and one acceleration pass, as before.
+// under a constant acceleration: a sliding or stopping block travels its analytic distance), and the scheme is
+// symplectic, so the pressure term's oscillations are not amplified, as they are by a position update from the
+// mean of the old and new velocities. The new positions' accelerations serve the next step's first half: one
+// thickness pass and one acceleration pass a step.
 real Model::step_to(real t_limit) {
   if (!accelerations_current_) next_dt_ = accelerations();
   const real dt = std::min(next_dt_, t_limit - time_);
