@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "runout/engine/rheology.hpp"
 #include "runout/engine/solver.hpp"
@@ -138,4 +139,29 @@ TEST(Rheology, SolverMeasuresSimpleShearRate) {
     EXPECT_NEAR(tau, 400.0 + 3.0 * std::pow(gm, 0.8), 1e-6 * tau);
   }
   EXPECT_GT(checked, 100);
+}
+
+// The pore-pressure ratio r_u: friction acts on the effective stress (1 - r_u) P (Hungr 1995; DAN3D's frictional
+// rheology), in the yield stress and in the walls' Coulomb coefficient; cohesion is untouched.
+TEST(Rheology, PorePressureRatioScalesTheFrictionalStrengthOnly) {
+  MaterialParams p = friction(28.0, 300.0, 1.0, 1.05, 100.0);
+  const auto dry = make_rheology(p);
+  const double ru = 1000.0 / 2088.0;  // a saturated mixture at hydrostatic pore pressure: rho_w / rho
+  p.set("pore_pressure_ratio", ru);
+  const auto wet = make_rheology(p);
+  const double s = std::sin(28.0 * kPi / 180), c = 300.0 * std::cos(28.0 * kPi / 180);
+  EXPECT_NEAR(wet->yield_stress(2e4), (1 - ru) * 2e4 * s + c, 1e-9);
+  EXPECT_NEAR(wet->yield_stress(-1e3), c, 1e-12);
+  EXPECT_NEAR(wet->wall_friction_coefficient(), (1 - ru) * dry->wall_friction_coefficient(), 1e-15);
+  EXPECT_NEAR(wet->tensile_strength(), dry->tensile_strength() / (1 - ru), 1e-9);
+  EXPECT_NEAR(mu_eff(*wet, 40.0, 2e4) * 40.0, (1 - ru) * 2e4 * s + c + std::pow(40.0, 1.05), 1e-3);
+  // r_u = 1 would leave no friction at all: refused, with the field and its range named.
+  p.set("pore_pressure_ratio", 1.0);
+  try {
+    make_rheology(p);
+    FAIL() << "r_u = 1 accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("pore_pressure_ratio"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("[0, 1)"), std::string::npos) << e.what();
+  }
 }
