@@ -16,6 +16,9 @@ Geometry along the bed, s [m] from the head gate (the paper's x):
     stack of 0.1 m layers in the bed's frame, each spanning the wedge at its mid-height. The gate is not modelled:
     the release is instantaneous (the paper's gate opens in about 0.85 s). A back wall normal to the bed closes
     the hopper at s = -4.7 m.
+The 3D scene (usgs_flume_wall_3d.json) is the same along the bed, across it: the flume 2 m wide between side walls
+1.2 m high that end at s = 87.4 m (the paper's Table 1: extended for the wall tests), then a pad 12 m wide; the wall
+5.2 m wide (Table 1), centred on the flume. The runup gauge is on the centreline (the paper's H).
 Material: friction-HBP with the paper's phi_bed 28 deg and a bulk density from its solid fraction 0.64, grain
 density 2700 kg/m3 and water: 0.64 * 2700 + 0.36 * 1000 = 2088 kg/m3; the pore-pressure ratio of a saturated
 mixture at hydrostatic pore pressure, r_u = rho_w / rho = 1000 / 2088; the consistency, flow index and
@@ -30,6 +33,8 @@ S_EASE0, S_EASE1, CHORDS = 74.0, 84.0, 5
 S_WALL, WALL_H, WALL_T, S_END = 91.0, 2.4, 0.2, 93.0
 S_BACK, LAYER = -4.7, 0.1
 GAUGE_OFF_WALL = 0.3  # the runup gauge's distance from the wall's face: the kernel's reach 2h at dp 0.1
+WIDTH, SIDEWALL_H, SIDEWALL_END = 2.0, 1.2, 87.4  # 3D: the flume's width, its side walls' height and end
+PAD_WIDTH, WALL_W = 12.0, 5.2                      # 3D: the pad past the side walls, the wall across
 
 
 def rad(a):
@@ -129,8 +134,54 @@ def scene():
     }, area, placed
 
 
+def with_y(p, y):
+    return [p[0], y, p[1]]
+
+
+def scene_3d(s2):
+    """The 2D scene made 3D: the flume 2 m wide with its side walls to s = 87.4 m, a wide pad past them."""
+    s = json.loads(json.dumps(s2))
+    s["name"] = "usgs-flume-wall-3d"
+    s["dimensions"] = 3
+    s["description"] = s2["description"].replace("a 2D slice per unit width", "in 3D: the flume 2 m wide with "
+        "side walls 1.2 m high to s = 87.4 m, then a 12 m wide pad; the wall 5.2 m wide, centred").replace(
+        "per metre, 9.9 m3 over 2 m", "per metre, 9.9 m3 over the 2 m width").replace(
+        "tests/scenarios/usgs_flume_test.cpp", "docs/validation.md section 13 (a measurement, not in CI)")
+    for b in s["fluid"]:
+        b["origin"] = with_y(b["origin"], 0.0)
+        b["size"] = [b["size"][0], WIDTH, b["size"][1]]
+    bounds = []
+    for k, (s0, length, a) in enumerate(segments()):
+        end = min(s0 + length, SIDEWALL_END)
+        if end > s0:
+            bounds.append({"type": "flume", "tag": f"bed{k}", "origin": with_y(bed_point(s0), 0.0),
+                           "length": round(end - s0, 6), "angle": round(a, 6), "width": WIDTH,
+                           "wall_height": SIDEWALL_H})
+    y0 = WIDTH / 2 - PAD_WIDTH / 2
+    bounds.append({"type": "plane", "tag": "pad", "origin": with_y(bed_point(SIDEWALL_END), y0),
+                   "length": round(S_END - SIDEWALL_END, 6), "angle": PAD, "width": PAD_WIDTH})
+    bounds.append({"type": "block", "tag": "hopper_back", "origin": with_y(bed_point(S_BACK - WALL_T), 0.0),
+                   "size": [WALL_T, WIDTH, 2.5], "angle": SLOPE})
+    bounds.append({"type": "block", "tag": "wall", "origin": with_y(bed_point(S_WALL), WIDTH / 2 - WALL_W / 2),
+                   "size": [WALL_T, WALL_W, WALL_H], "angle": PAD})
+    s["boundaries"] = bounds
+    for m in s["monitors"]:
+        if "point" in m:
+            m["point"] = with_y(m["point"], WIDTH / 2)
+        if "normal" in m:
+            m["normal"] = [m["normal"][0], 0.0, m["normal"][1]]
+    d = s["domain"]
+    d["min"] = [d["min"][0], y0 - 1, d["min"][1]]
+    d["max"] = [d["max"][0], y0 + PAD_WIDTH + 1, d["max"][1]]
+    d["outflow"] = ["x+", "bottom", "y-", "y+"]
+    return s
+
+
 if __name__ == "__main__":
     s, area, placed = scene()
     out = pathlib.Path(__file__).resolve().parents[1] / "scenarios" / "validation" / "usgs_flume_wall_2d.json"
     out.write_text(json.dumps(s, indent=1) + "\n")
     print(f"{out}: wedge {area:.3f} m2, placed {placed:.3f} m2, {len(s['fluid'])} layers")
+    out3 = out.with_name("usgs_flume_wall_3d.json")
+    out3.write_text(json.dumps(scene_3d(s), indent=1) + "\n")
+    print(out3)

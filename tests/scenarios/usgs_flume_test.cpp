@@ -32,6 +32,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -157,6 +158,10 @@ TEST(UsgsFlume, TheSceneIsAsDescribed) {
   EXPECT_NEAR(m["density"].get<double>(), 0.64 * 2700 + 0.36 * 1000, 1e-9);
   EXPECT_NEAR(m["pore_pressure_ratio"].get<double>(), 1000 / m["density"].get<double>(), 1e-6);
   EXPECT_DOUBLE_EQ(m["friction_angle"].get<double>(), 28.0);
+  // The 3D scene (a measurement, docs/validation.md section 13) is read by the same parser.
+  std::ifstream in3(kScene.parent_path() / "usgs_flume_wall_3d.json");
+  const std::string text3((std::istreambuf_iterator<char>(in3)), std::istreambuf_iterator<char>());
+  EXPECT_NO_THROW(parse_scene(text3));
 }
 
 // The aims above, in full, on a run that completes without a leak.
