@@ -1,18 +1,21 @@
-// Validation (issues 44 item 3 and 41 part 3): the ISeeSnow intercomparison's CoulombOnly case (avaframe/ISeeSnow,
-// test case 3; scenarios/validation/iseesnow_coulomb_only.json, scenarios/dem/README.md) at the screening rung,
+// Validation (issues 44 item 3 and 41 part 3): the ISeeSnow intercomparison's CoulombOnly and IdealizedTopo cases
+// (avaframe/ISeeSnow, test cases 3 and 1: the same DEM, release and thalweg, Coulomb mu 0.4 and Voellmy mu 0.4,
+// xi 2000 m/s2; scenarios/validation/iseesnow_*.json, scenarios/dem/README.md) at the screening rung,
 // placed among the peer models' stored results by the intercomparison's own rule (its ISeeSnowCfg.ini, ana3AIMEC:
 // runout = the farthest arc length along the thalweg path_aimec of a cell whose peak flow velocity exceeds 1 m/s,
 // within 700 m of the path; the affected area = those cells').
 //
 // The peers' figures below were computed from their stored peak-velocity rasters
-// (data/CoulombOnly/Outputs_CoulombOnly/*_pfv*, *_s_max*, ISeeSnow commit 290f4d9) by
+// (data/<case>/Outputs_<case>/*_pfv*, *_s_max*, ISeeSnow commit 290f4d9) by
 // `/usr/bin/python3 scripts/iseesnow_runout.py scenarios/validation/iseesnow/path_aimec.shp RASTER ...`, which
-// applies the same rule as this test. Thirteen models: runout 2 975-3 635 m, affected area 379 850-650 625 m2.
+// applies the same rule as this test. CoulombOnly, thirteen models: runout 2 975-3 635 m, affected area
+// 379 850-650 625 m2; IdealizedTopo, twelve: 2 290-2 425 m, 164 575-411 700 m2.
 //
 // Aim: runout and affected area inside the peers' range (the spread of the intercomparison's models is the
-// tolerance; there is no exact answer). Declared on 2026-12-07 after a first run at spacing 5 m had been seen
-// (3 175 m, 531 700 m2), so it is a placement, not a blind prediction: the run's figures are printed beside the
-// peers' for the record in docs/validation.md section 14.
+// tolerance; there is no exact answer). Declared on 2026-12-07 after a first run of each case at spacing 5 m had
+// been seen (CoulombOnly 3 175 m, 531 700 m2; IdealizedTopo 2 345 m, 363 500 m2), so it is a placement, not a
+// blind prediction: the run's figures are printed beside the peers' for the record in docs/validation.md
+// section 14.
 #include <gdal_priv.h>
 #include <gtest/gtest.h>
 #include <ogrsf_frmts.h>
@@ -45,12 +48,17 @@ struct Peer {
   double runout_m, area_m2;
 };
 // scripts/iseesnow_runout.py on the stored results (see the header).
-const std::vector<Peer> kPeers = {
+const std::vector<Peer> kCoulombOnlyPeers = {
     {"faSavageHutterFoamGamma", 2975.0, 390100}, {"TITAN2D v4.2.0", 3005.0, 457850}, {"RAMMS (user)", 3140.0, 379850},
     {"com1DFA", 3150.0, 394250},  {"samosAT", 3150.0, 394575},    {"MPM", 3160.0, 433525},
     {"TRENT2D", 3220.0, 464700},  {"Gerris", 3250.0, 422825},     {"minVoellmy v2", 3275.0, 631700},
     {"r.avaflow", 3300.0, 650625}, {"openFOAM mu", 3412.5, 525875}, {"MoT-Voellmy", 3415.0, 563925},
     {"INRAE aval", 3635.0, 564600}};
+const std::vector<Peer> kIdealizedTopoPeers = {
+    {"r.avaflow", 2290.1, 411700},  {"RAMMS (user)", 2305.0, 200525}, {"faSavageHutterFoamGamma", 2310.0, 224900},
+    {"minVoellmy v2", 2310.0, 228350}, {"TRENT2D", 2310.1, 228400}, {"samosAT", 2310.1, 231975},
+    {"com1DFA", 2310.1, 232425},    {"Gerris", 2315.0, 211375},     {"INRAE aval", 2315.1, 242525},
+    {"TITAN2D v4.2.0", 2320.1, 254625}, {"FLO-2D", 2340.0, 164575}, {"MoT-Voellmy", 2425.0, 228775}};
 
 std::vector<std::array<double, 2>> thalweg() {
   GDALAllRegister();
@@ -106,30 +114,40 @@ std::array<double, 2> runout_and_area(const fs::path& raster, const std::vector<
   return {runout, area};
 }
 
-}  // namespace
-
-TEST(ISeeSnow, CoulombOnlyRunoutAndAreaAmongThePeers) {
-  std::ifstream in(kDir / "iseesnow_coulomb_only.json");
+// Runs a case's scene and checks its runout and area against the peers' range.
+void expect_among_peers(const char* scene, const std::vector<Peer>& peers) {
+  std::ifstream in(kDir / scene);
   auto s = nlohmann::json::parse(in);
   s["terrain"]["dem"] = (kDir / s["terrain"]["dem"].get<std::string>()).lexically_normal().string();
   RunOptions opt;
-  opt.out_dir = fs::path(RUNOUT_BINARY_DIR) / "validation" / "iseesnow_coulomb_only";
+  opt.out_dir = fs::path(RUNOUT_BINARY_DIR) / "validation" / s["name"].get<std::string>();
   const RunSummary sum = run_scene(parse_scene(s.dump()), opt);
   ASSERT_EQ(sum.status, "completed") << sum.error;
   const auto path = thalweg();
   ASSERT_EQ(path.size(), 5u) << "the thalweg path_aimec";
   const auto [runout, area] = runout_and_area(opt.out_dir / "rasters" / "max_speed.tif", path);
   double lo_s = 1e300, hi_s = 0, lo_a = 1e300, hi_a = 0;
-  for (const auto& p : kPeers) {
+  for (const auto& p : peers) {
     lo_s = std::min(lo_s, p.runout_m), hi_s = std::max(hi_s, p.runout_m);
     lo_a = std::min(lo_a, p.area_m2), hi_a = std::max(hi_a, p.area_m2);
   }
-  const auto below = std::count_if(kPeers.begin(), kPeers.end(), [&](const Peer& p) { return p.runout_m < runout; });
-  std::printf("  screening: runout %.1f m (%ld of %zu peers shorter; peers %.0f-%.0f m), affected area %.0f m2 "
+  const auto below = std::count_if(peers.begin(), peers.end(), [&](const Peer& p) { return p.runout_m < runout; });
+  std::printf("  %s, screening: runout %.1f m (%ld of %zu peers shorter; peers %.0f-%.0f m), affected area %.0f m2 "
               "(peers %.0f-%.0f); %ld steps, %.1f s\n",
-              runout, static_cast<long>(below), kPeers.size(), lo_s, hi_s, area, lo_a, hi_a, sum.steps, sum.wall_seconds);
+              scene, runout, static_cast<long>(below), peers.size(), lo_s, hi_s, area, lo_a, hi_a, sum.steps,
+              sum.wall_seconds);
   EXPECT_GE(runout, lo_s);
   EXPECT_LE(runout, hi_s);
   EXPECT_GE(area, lo_a);
   EXPECT_LE(area, hi_a);
+}
+
+}  // namespace
+
+TEST(ISeeSnow, CoulombOnlyRunoutAndAreaAmongThePeers) {
+  expect_among_peers("iseesnow_coulomb_only.json", kCoulombOnlyPeers);
+}
+
+TEST(ISeeSnow, IdealizedTopoRunoutAndAreaAmongThePeers) {
+  expect_among_peers("iseesnow_idealized_topo.json", kIdealizedTopoPeers);
 }
