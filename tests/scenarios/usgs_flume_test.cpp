@@ -53,9 +53,8 @@ constexpr double kFront = 0.02;                     // a front's depth [m]: the 
 constexpr double kGateEarly = 0.85, kLate = 0.5;    // the window around a measured front time [s]
 
 struct Flume {
-  std::string status, error;
-  double dp = 0, wall_seconds = 0, max_mach = 0;
-  long steps = 0, leaks = 0;
+  RunSummary run;                                      // status, error, steps, wall time, metrics.json
+  double dp = 0;
   double front32 = -1, front66 = -1, front_wall = -1;  // [s]; -1 if the front never came
   double first_peak = 0, first_peak_t = 0;             // runup over the 1.5 s after the front reached the wall [m], [s]
   double max_runup = 0, max_runup_t = 0;               // [m], [s]
@@ -82,14 +81,8 @@ Flume run_flume(double dp) {
   r.dp = dp;
   RunOptions opt;
   opt.out_dir = fs::path(RUNOUT_BINARY_DIR) / "validation" / ("usgs_flume_dp" + std::to_string(int(std::lround(dp * 1000))));
-  const RunSummary sum = run_scene(parse_scene(s.dump()), opt);
-  r.status = sum.status;
-  r.error = sum.error;
-  r.steps = sum.steps;
-  r.wall_seconds = sum.wall_seconds;
-  const json m = json::parse(sum.metrics_json);
-  r.leaks = m["leaks"].get<long>();
-  r.max_mach = m["max_mach"].get<double>();
+  r.run = run_scene(parse_scene(s.dump()), opt);
+  const json m = json::parse(r.run.metrics_json);
   r.out_of_domain = m["mass"]["outflow_kg"].get<double>() / s["materials"][0]["density"].get<double>();
 
   using runout_test::read_csv;
@@ -108,8 +101,8 @@ Flume run_flume(double dp) {
   const auto tw = wall.col("t"), f = wall.col("force_n");
   for (size_t i = 0; i < tw.size() && i < f.size(); ++i)
     if (f[i] > r.max_force) r.max_force = f[i], r.max_force_t = tw[i];
-  std::printf("  dp %.3f m: %s, %ld steps, %.0f s wall, Mach %.3f, leaks %ld\n", dp, r.status.c_str(), r.steps,
-              r.wall_seconds, r.max_mach, r.leaks);
+  std::printf("  dp %.3f m: %s, %ld steps, %.0f s wall, Mach %.3f, leaks %ld\n", dp, r.run.status.c_str(),
+              r.run.steps, r.run.wall_seconds, m["max_mach"].get<double>(), m["leaks"].get<long>());
   std::printf("    front at x = 32 m %.2f s (measured 3.57), 66 m %.2f s (6.08), the wall %.2f s (just before 8)\n",
               r.front32, r.front66, r.front_wall);
   std::printf("    runup: first peak %.2f m at %.2f s, largest %.2f m at %.2f s (the wall 2.4 m high)\n", r.first_peak,
@@ -167,8 +160,8 @@ TEST(UsgsFlume, TheSceneIsAsDescribed) {
 // The aims above, in full, on a run that completes without a leak.
 TEST(UsgsFlume, FrontTimesAndRunupAgainstTheExperiments) {
   const Flume r = flume();
-  ASSERT_EQ(r.status, "completed") << r.error;
-  EXPECT_EQ(r.leaks, 0);
+  ASSERT_EQ(r.run.status, "completed") << r.run.error;
+  EXPECT_EQ(json::parse(r.run.metrics_json)["leaks"].get<long>(), 0);
   expect_front(r.front32, 3.57, 3.57, "x = 32 m");
   expect_front(r.front66, 6.08, 6.08, "x = 66 m");
   expect_front(r.front_wall, 7.5, 8.0, "the wall");
