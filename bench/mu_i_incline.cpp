@@ -1,8 +1,11 @@
-// mu(I) on an incline: a uniform granular layer against Bagnold's velocity profile, as a measurement (not a test:
-// the layer had not reached a steady state matching Bagnold when this was written, docs/validation.md "mu(I)").
+// mu(I) on an incline: a uniform granular layer against Bagnold's velocity profile, as a measurement of what each
+// numerical choice does to it (the test, tests/engine/mu_i_incline_test.cpp, runs the scene; docs/validation.md
+// section 5).
 //
 //   build/bench/bench_mu_i_incline [--t-end 5] [--trace] [--viscosity implicit|explicit] [--walls scene|bare]
 //                                  [--wall-pressure dbc|extrapolated] [--floor on|off] [--slope 25]
+//                                  [--density-diffusion none|molteni|fourtakas] [--c0 15]
+//                                  [--shifting none|fickian]
 
 #include <algorithm>
 #include <cmath>
@@ -39,14 +42,16 @@ MaterialParams beads(double regularisation) {
 //   u(z) = (2/3) (I_t / d) sqrt(phi g cos theta) (H^1.5 - (H - z)^1.5),  I_t = I0 (tan theta - mu_s) / (mu_2 - tan theta)
 // (GDR MiDi 2004; Jop et al. 2006): the stress ratio is tan theta at every depth, so I = I_t everywhere.
 // 2D, periodic along the slope (gravity tilted), a no-slip DBC bed, dp = 1 mm, H = 20 dp.
-// `extrapolated` and `floor`: the extrapolated wall pressure and the density floor a scene with a granular material
-// gets (GranularDefaults); DBC walls and no floor, as this layer was first run, otherwise.
-void run(double t_end, bool trace, bool implicit, bool extrapolated, bool floor, double slope_deg) {
+// `extrapolated`, `floor` and `shifting`: the extrapolated wall pressure, the density floor and the particle shifting
+// a scene with a granular material gets (GranularDefaults); DBC walls, no floor and no shifting, as this layer was
+// first run, otherwise.
+void run(double t_end, bool trace, bool implicit, bool extrapolated, bool floor, double slope_deg,
+         const std::string& ddt, double c0, const std::string& shifting) {
   const double theta = slope_deg * kPi / 180.0, g = 9.81, dp = 1e-3, H = 20 * dp, period = 12 * dp;
   SceneSetup<2> s;
   s.config.dp = dp;
   s.config.smoothing_length = 1.5 * dp;
-  s.config.speed_of_sound = 15.0;  // >= 10 x the surface speed (1.2 m/s)
+  s.config.speed_of_sound = c0;  // the scene's 15 m/s: >= 10 x the surface speed (1.2 m/s)
   s.config.gravity = {g * std::sin(theta), -g * std::cos(theta), 0};
   s.config.boundary_density = kRho;
   s.config.periodic = {true, false, false};
@@ -57,6 +62,8 @@ void run(double t_end, bool trace, bool implicit, bool extrapolated, bool floor,
     s.config.density_floor = GranularDefaults::density_floor;
     s.config.max_dilatancy = GranularDefaults::max_dilatancy;
   }
+  s.config.particle_shifting = particle_shifting_from_name(shifting);
+  if (!ddt.empty()) s.config.density_diffusion = density_diffusion_from_name(ddt);
   s.config.domain_min = {0.0, -10 * dp, 0};
   s.config.domain_max = {period, 1.0, 0};
   s.materials.push_back(beads(100.0));
@@ -147,8 +154,8 @@ int main(int argc, char** argv) {
   CLI::App app{"mu(I) layer on a 25 degree incline against Bagnold's profile. Example: bench_mu_i_incline --t-end 5"};
   double t_end = 5.0;
   bool trace = false;
-  std::string viscosity = "implicit", walls = "scene", wall_pressure, floor;
-  double slope_deg = 25.0;
+  std::string viscosity = "implicit", walls = "scene", wall_pressure, floor, ddt, shifting;
+  double slope_deg = 25.0, c0 = 15.0;
   app.add_option("--viscosity", viscosity, "the viscous step (a scene's default for mu(I): implicit)")
       ->check(CLI::IsMember({"explicit", "implicit"}));
   app.add_option("--walls", walls, "scene: the wall pressure and density floor a scene with mu(I) gets; bare: DBC, no floor")
@@ -160,10 +167,16 @@ int main(int argc, char** argv) {
                                        "rows' pressure against lithostatic, no Bagnold profile)")
       ->check(CLI::Range(0.0, 30.0));
   app.add_option("--t-end", t_end, "simulated time [s]")->check(CLI::Range(0.3, 100.0));
+  app.add_option("--density-diffusion", ddt, "overrides the default density diffusion term")
+      ->check(CLI::IsMember(density_diffusion_names()));
+  app.add_option("--shifting", shifting, "overrides --walls for the particle shifting (scene: fickian; bare: none)")
+      ->check(CLI::IsMember(particle_shifting_names()));
+  app.add_option("--c0", c0, "speed of sound [m/s]")->check(CLI::Range(5.0, 200.0));
   app.add_flag("--trace", trace, "print the mean speed every 5000 steps");
   CLI11_PARSE(app, argc, argv);
   const bool extrapolated = wall_pressure.empty() ? walls == "scene" : wall_pressure == "extrapolated";
   const bool with_floor = floor.empty() ? walls == "scene" : floor == "on";
-  run(t_end, trace, viscosity == "implicit", extrapolated, with_floor, slope_deg);
+  if (shifting.empty()) shifting = walls == "scene" ? GranularDefaults::particle_shifting : "none";
+  run(t_end, trace, viscosity == "implicit", extrapolated, with_floor, slope_deg, ddt, c0, shifting);
   return 0;
 }

@@ -787,6 +787,8 @@ json settings_metrics(const Solver<D>& solver) {
           {"density_floor", cfg.density_floor},
           {"max_dilatancy", cfg.max_dilatancy},
           {"neighbour_skin", cfg.neighbour_skin},
+          {"particle_shifting", particle_shifting_names()[static_cast<size_t>(cfg.particle_shifting)]},
+          {"shifting_coefficient", cfg.shifting_coefficient},
           {"boundary_pressure", boundary_pressure_names()[static_cast<size_t>(cfg.boundary_pressure)]}};
 }
 

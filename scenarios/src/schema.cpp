@@ -166,7 +166,8 @@ json numerics_schema() {
                 {"density_diffusion", {{"enum", density_diffusion_names()}}},
                 {"viscosity", {{"enum", viscous_step_names()}}},
                 {"boundary_pressure", {{"enum", boundary_pressure_names()}}},
-                {"density_floor", {{"type", "boolean"}}}};
+                {"density_floor", {{"type", "boolean"}}},
+                {"particle_shifting", {{"enum", particle_shifting_names()}}}};
   // A default that depends on the scene (text with a ';') is stated in the description, not as "default".
   for (const auto& f : numerics_choice_fields()) {
     const bool conditional = f.default_text.find(';') != std::string::npos;

@@ -1,5 +1,6 @@
-// A scene with a granular material defaults to extrapolated walls and the density floor at 10 % dilatancy
-// (GranularDefaults, docs/design.md "Granular defaults"); a liquid's scene keeps DBC walls and no floor; what
+// A scene with a granular material defaults to extrapolated walls, the density floor at 10 % dilatancy and
+// Fickian particle shifting (GranularDefaults, docs/design.md "Granular defaults"); a liquid's scene keeps DBC
+// walls, no floor and no shifting; what
 // a scene sets is what it runs; metrics.json reports the choice.
 #include <gtest/gtest.h>
 
@@ -48,6 +49,8 @@ TEST(GranularDefaults, AGranularMaterialGetsExtrapolatedWallsAndTheFloor) {
     EXPECT_EQ(cfg.boundary_pressure, BoundaryPressure::extrapolated) << material["rheology"];
     EXPECT_TRUE(cfg.density_floor) << material["rheology"];
     EXPECT_DOUBLE_EQ(cfg.max_dilatancy, GranularDefaults::max_dilatancy) << material["rheology"];
+    EXPECT_EQ(cfg.particle_shifting, ParticleShifting::fickian) << material["rheology"];
+    EXPECT_DOUBLE_EQ(cfg.shifting_coefficient, numerics_default::shifting_coefficient) << material["rheology"];
   }
 }
 
@@ -56,6 +59,7 @@ TEST(GranularDefaults, ALiquidKeepsDbcWallsAndNoFloor) {
   EXPECT_EQ(cfg.boundary_pressure, BoundaryPressure::dbc);
   EXPECT_FALSE(cfg.density_floor);
   EXPECT_DOUBLE_EQ(cfg.max_dilatancy, 0.0);
+  EXPECT_EQ(cfg.particle_shifting, ParticleShifting::none);
 }
 
 TEST(GranularDefaults, WhatTheSceneSetsIsWhatItRuns) {
@@ -77,6 +81,33 @@ TEST(GranularDefaults, WhatTheSceneSetsIsWhatItRuns) {
   cfg = config_of(j);
   EXPECT_TRUE(cfg.density_floor);
   EXPECT_DOUBLE_EQ(cfg.max_dilatancy, 0.0);
+
+  // Shifting: off in a granular scene that says so; on in a liquid's that asks, with its coefficient.
+  j = tank_scene(kFriction);
+  j["numerics"] = {{"particle_shifting", "none"}};
+  EXPECT_EQ(config_of(j).particle_shifting, ParticleShifting::none);
+  j = tank_scene(kWater);
+  j["numerics"] = {{"particle_shifting", "fickian"}, {"shifting_coefficient", 1.5}};
+  cfg = config_of(j);
+  EXPECT_EQ(cfg.particle_shifting, ParticleShifting::fickian);
+  EXPECT_DOUBLE_EQ(cfg.shifting_coefficient, 1.5);
+}
+
+// A coefficient with nothing to size is refused, naming the field and what it needs; so is an unknown shift.
+TEST(GranularDefaults, ShiftingFieldsAreChecked) {
+  auto expect_refused = [](const json& numerics, const std::string& field, const std::string& said) {
+    json j = tank_scene(kWater);
+    j["numerics"] = numerics;
+    try {
+      (void)config_of(j);
+      ADD_FAILURE() << numerics.dump() << " was accepted";
+    } catch (const SceneError& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(said), std::string::npos) << e.what();
+    }
+  };
+  expect_refused({{"shifting_coefficient", 1.5}}, "numerics.shifting_coefficient", "particle_shifting = fickian");
+  expect_refused({{"particle_shifting", "lind"}}, "numerics.particle_shifting", "fickian");
 }
 
 TEST(GranularDefaults, MetricsReportTheWallsAndTheFloor) {
@@ -89,5 +120,6 @@ TEST(GranularDefaults, MetricsReportTheWallsAndTheFloor) {
   EXPECT_EQ(s["boundary_pressure"], "extrapolated");
   EXPECT_EQ(s["density_floor"], true);
   EXPECT_DOUBLE_EQ(s["max_dilatancy"].get<double>(), GranularDefaults::max_dilatancy);
+  EXPECT_EQ(s["particle_shifting"], "fickian");
   fs::remove_all(opt.out_dir);
 }

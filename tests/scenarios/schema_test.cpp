@@ -127,10 +127,12 @@ TEST(Schema, SolverConfigStartsFromTheScenesNumericsDefaults) {
   EXPECT_EQ(c.min_dt, def("min_dt"));
   EXPECT_EQ(c.max_dilatancy, def("max_dilatancy"));
   EXPECT_EQ(c.neighbour_skin, def("neighbour_skin"));
+  EXPECT_EQ(c.shifting_coefficient, def("shifting_coefficient"));
   // The choices: a scene's defaults are the first of each list (fourtakas the last of density diffusion's).
   EXPECT_EQ(std::string(kernel_name(c.kernel)), kernel_names().front());
   EXPECT_EQ(integrator_names()[static_cast<size_t>(c.integrator)], integrator_names().front());
   EXPECT_EQ(density_diffusion_names()[static_cast<size_t>(c.density_diffusion)], density_diffusion_names().back());
+  EXPECT_EQ(particle_shifting_names()[static_cast<size_t>(c.particle_shifting)], particle_shifting_names().front());
 }
 
 // The monitors' and structures' tables of docs/scene-format.md are generated from their descriptors.

@@ -227,6 +227,9 @@ struct PassBuffers {
   // Per fluid particle, the friction drag of the implicit step and its wall normal (pass_context.hpp).
   std::vector<real> friction_drag;
   std::array<std::vector<real>, D> friction_normal;
+  // Particle shifting (shifting.cpp): per fluid particle, grad C and the free-surface scale (0 at a surface).
+  std::array<std::vector<real>, D> shift_gradient;
+  std::vector<real> shift_scale;
 };
 
 // Wall tiles (wall_tiles.cpp). Per boundary particle: its tile (-1: a fixed particle, always alive) and its

@@ -23,6 +23,7 @@ const StepStats& Solver<D>::step() {
   const real dt = record_.stats.dt;
   const size_t n = fluid_.size();
   const real rho0_b = config_.boundary_density;
+  const bool shifting = config_.particle_shifting != ParticleShifting::none;
   const auto& acc = fluid_fields_.acc;
   const auto& drho = fluid_fields_.drho;
   const auto& wall_drho = wall_fields_.drho;
@@ -100,6 +101,8 @@ const StepStats& Solver<D>::step() {
     for (size_t i = 0; i < n; ++i)
       for (int d = 0; d < D; ++d) fluid_.vel[d][i] = saved_.vel[d][i] + dt * acc[d][i];
     if (implicit) implicit_viscous_step(dt);
+    // The shift's concentration gradient at the midpoint, where the pair lists are (as DualSPHysics: corrector only).
+    if (shifting) shifting_gradients();
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; ++i) {
       stop_wall_approach(i);
@@ -108,6 +111,7 @@ const StepStats& Solver<D>::step() {
       const real eps = -drho[i] / fluid_.rho[i] * dt;
       fluid_.rho[i] = std::max(rho_floor_of[fluid_.material[i]], saved_.rho[i] * (2.0 - eps) / (2.0 + eps));
     }
+    if (shifting) apply_shifting(dt);
     cells.for_each_active_wall([&](uint32_t b) {
       const real eps = -wall_drho[b] / boundary_.rho[b] * dt;
       boundary_.rho[b] = std::max(rho0_b, saved_.boundary_rho[b] * (2.0 - eps) / (2.0 + eps));
@@ -115,6 +119,7 @@ const StepStats& Solver<D>::step() {
   } else {
     // Verlet (thesis eq. 2.23-2.24): the saved arrays hold the values at n-1.
     const bool euler = config_.verlet_reset_steps > 0 && (record_.steps + 1) % config_.verlet_reset_steps == 0;
+    if (shifting) shifting_gradients();
 #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; ++i) {
       for (int d = 0; d < D; ++d) {
@@ -136,6 +141,7 @@ const StepStats& Solver<D>::step() {
       boundary_.rho[b] = std::max(rho0_b, next);
       saved_.boundary_rho[b] = r;
     });
+    if (shifting) apply_shifting(dt);
   }
 
   record_.time += dt;

@@ -44,6 +44,8 @@ const std::vector<ParameterSpec>& numerics_parameters() {
       {"neighbour_skin", "", numerics_default::neighbour_skin, 0.0, 1.0, false, false, false,
        "Verlet-list skin as a fraction of h: pair candidates within 2h + skin are kept until a pair may have "
        "closed in by the skin (0: the cells are scanned at every force evaluation)"},
+      {"shifting_coefficient", "", numerics_default::shifting_coefficient, 0.0, 10.0, true, false, false,
+       "with particle_shifting fickian: A in the shift -A h |v| dt grad C"},
   };
   return specs;
 }
@@ -67,6 +69,10 @@ const std::vector<std::string>& density_diffusion_names() {
   static const std::vector<std::string> names = {"none", "molteni", "fourtakas"};
   return names;
 }
+const std::vector<std::string>& particle_shifting_names() {
+  static const std::vector<std::string> names = {"none", "fickian"};
+  return names;
+}
 const std::vector<std::string>& boundary_pressure_names() {
 #define RUNOUT_WALL_MODEL_NAME(id, doc) #id,
   static const std::vector<std::string> names = {RUNOUT_WALL_MODELS(RUNOUT_WALL_MODEL_NAME)};
@@ -87,6 +93,9 @@ DensityDiffusion density_diffusion_from_name(const std::string& name) {
 }
 ViscousStep viscous_step_from_name(const std::string& name) {
   return from_name<ViscousStep>(name, viscous_step_names(), "viscous step");
+}
+ParticleShifting particle_shifting_from_name(const std::string& name) {
+  return from_name<ParticleShifting>(name, particle_shifting_names(), "particle shifting");
 }
 BoundaryPressure boundary_pressure_from_name(const std::string& name) {
   return from_name<BoundaryPressure>(name, boundary_pressure_names(), "boundary pressure");

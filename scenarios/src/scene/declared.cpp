@@ -80,7 +80,8 @@ void check_numerics(const Collect& c, const json& j, int D) {
       {"integrator", integrator_names()},
       {"density_diffusion", density_diffusion_names()},
       {"viscosity", viscous_step_names()},
-      {"boundary_pressure", boundary_pressure_names()}};
+      {"boundary_pressure", boundary_pressure_names()},
+      {"particle_shifting", particle_shifting_names()}};
   for (const auto& choice : choices) c([&] { (void)num.string_or(choice.first, "", choice.second); });
   c([&] { (void)num.boolean_or("density_floor", false); });
 }

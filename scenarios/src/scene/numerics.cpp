@@ -47,6 +47,8 @@ const std::vector<FieldSpec>& numerics_choice_fields() {
         f.shape = "boolean";
         return f;
       }(),
+      choice_field("particle_shifting", "move particles down their concentration gradient (Lind et al. 2012)",
+                   "none; fickian with a granular material"),
   };
   return fields;
 }
@@ -189,6 +191,12 @@ void read_numerics(Build<D>& b) {
   if (num.has("max_dilatancy") && !cfg.density_floor)
     throw SceneError(num.at("max_dilatancy"), "sets how far under rho0 the density floor stands: needs numerics.density_floor = true");
   read_walls(b, num, cfg);
+  cfg.particle_shifting = particle_shifting_from_name(num.string_or(
+      "particle_shifting", granular ? GranularDefaults::particle_shifting : "none", particle_shifting_names()));
+  cfg.shifting_coefficient = numeric("shifting_coefficient");
+  if (num.has("shifting_coefficient") && cfg.particle_shifting == ParticleShifting::none)
+    throw SceneError(num.at("shifting_coefficient"),
+                     "sizes the particle shift: needs numerics.particle_shifting = fickian");
   if (cfg.integrator == Integrator::verlet) check_verlet(b.setup.materials, num);
 }
 

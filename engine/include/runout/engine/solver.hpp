@@ -27,6 +27,8 @@ enum class DensityDiffusion { none, molteni, fourtakas };
 // time-step limit stays near the acoustic one, or by a backward-Euler step solved with conjugate gradients after
 // the corrector (implicit_viscosity.cpp), with mu_eff uncapped unless the scene sets a cap in Pa s.
 enum class ViscousStep { explicit_capped, implicit };
+// Particle shifting: none, or Lind et al.'s (2012) Fickian shift (engine/src/solver/shifting.cpp).
+enum class ParticleShifting { none, fickian };
 
 // Wall contact: a fluid particle closer than kWallContact dp to a wall particle loses the velocity component
 // towards the wall. A resting particle sits dp above the bed lattice and 0.9 dp from the next terrain column's
@@ -48,6 +50,7 @@ inline constexpr real shear_rate_floor = 1e-6;  // [1/s]
 inline constexpr real min_dt = 1e-8;            // [s]
 inline constexpr real max_dilatancy = 0.0;
 inline constexpr real neighbour_skin = 0.3;
+inline constexpr real shifting_coefficient = 2.0;  // Lind et al. (2012); DualSPHysics' ShiftCoef -2
 }  // namespace numerics_default
 
 struct SolverConfig {
@@ -83,6 +86,10 @@ struct SolverConfig {
   // How far under that density the floor stands, as a fraction: 0.1 lets a granular material dilate 10 %
   // (loose against dense random packing) before its density is held.
   real max_dilatancy = numerics_default::max_dilatancy;
+  // Fickian particle shifting (shifting.cpp): each step moves a particle down the gradient of its particle
+  // concentration by A h |v| dt grad C, off at a free surface.
+  ParticleShifting particle_shifting = ParticleShifting::none;
+  real shifting_coefficient = numerics_default::shifting_coefficient;
   std::array<real, 3> gravity{0.0, 0.0, -9.81};  // first D components are used
   real boundary_density = 1000.0;   // reference density of boundary particles [kg/m^3]
   BoundaryPressure boundary_pressure = BoundaryPressure::dbc;
@@ -103,9 +110,11 @@ const ParameterSpec& numerics_parameter(const std::string& key);
 const std::vector<std::string>& integrator_names();
 const std::vector<std::string>& density_diffusion_names();
 const std::vector<std::string>& viscous_step_names();
+const std::vector<std::string>& particle_shifting_names();
 Integrator integrator_from_name(const std::string& name);
 DensityDiffusion density_diffusion_from_name(const std::string& name);
 ViscousStep viscous_step_from_name(const std::string& name);
+ParticleShifting particle_shifting_from_name(const std::string& name);
 
 namespace solver_detail {
 template <int D>
@@ -389,6 +398,8 @@ class Solver {
   void set_time_step(bool viscous);       // from the evaluation's maxima
   bool implicit_viscosity() const;        // a viscous scene with numerics.viscosity implicit
   void implicit_viscous_step(real dt);    // implicit_viscosity.cpp: backward Euler on the fluid velocities
+  void shifting_gradients();              // shifting.cpp: grad C and the free-surface scale, at the pair lists
+  void apply_shifting(real dt);           // shifting.cpp: the shift, added to the positions
   void check_state();
   real potential_energy() const;
   void create_inlet_buffers();

@@ -102,11 +102,13 @@ const std::vector<FieldSpec>& numerics_choice_fields();
 // A scene with a granular material (a rheology with traits.granular) defaults to these numerics: a material
 // that carries no tension drifts far under rho0 where it thins and clumps without the floor, and DBC walls
 // build a pressure cushion under a thin frictional layer that stops it on a slope (docs/design.md,
-// "Granular defaults"). The floor's dilatancy: loose against dense random packing.
+// "Granular defaults"). The floor's dilatancy: loose against dense random packing. Shifting: a sheared layer
+// opens voids its continuity density does not see, and its pressure then reads high ("Particle shifting").
 struct GranularDefaults {
   static constexpr const char* boundary_pressure = "extrapolated";
   static constexpr bool density_floor = true;
   static constexpr double max_dilatancy = 0.1;
+  static constexpr const char* particle_shifting = "fickian";
 };
 
 // A scene's JSON text parsed: malformed JSON (or a number beyond a double) is a SceneError on "(json)".
