@@ -5,7 +5,9 @@ before G4-G7 had finished at draft), from the runs' metrics.json.
     scripts/alr_findings.py RUNS_DIR [SCREENING_RUNS_DIR]
 
 RUNS_DIR holds G0..G7 (runs/alr-G0-G7 of `runout sweep scenarios/catchment/alr_g0_g7.json`). With a second folder
-(the same sweep at another rung, e.g. --fidelity screening) it prints the Kendall tau of the two rankings.
+(the same sweep at another rung, e.g. --fidelity screening) it prints the Kendall tau of the two rankings: on the
+arrivals always, on depth, peak discharge, area and runout only when every run of both came to rest (a run cut
+short, as the arrival ladder's, has its final arrivals but not its final extent).
 
 The findings, as tested (G1 = Dam1, G2 = Dam2, G3 = Dam3, G4 = Dam1+2, G5 = Dam1+3, G6 = Dam2+3, G7 = all):
   F1  a dam delays the front and lowers Q_m below it: at the section 30 m below the dam (S1, S2, S3 for Dam1..3),
@@ -53,7 +55,7 @@ def row(m):
         layer = m["settings"]["dp_m"]
         particle = layer ** 3
         sampling = m["dt"]["last_s"]  # a 3D section times a crossing to its step
-    r = {"status": m["status"], "dp": layer, "q_quantum": particle / window if window else 0.0, "sampling": sampling, "runout": t["inundation"]["runout_m"], "area": t["inundation"]["inundated_area_m2"],
+    r = {"status": m["status"], "at_rest": m.get("rest", {}).get("ended_at_s") is not None, "dp": layer, "q_quantum": particle / window if window else 0.0, "sampling": sampling, "runout": t["inundation"]["runout_m"], "area": t["inundation"]["inundated_area_m2"],
          "village_arrival": village.get("arrival_time_s"), "village_depth": village.get("max_depth_m"),
          "village_area": village.get("inundated_area_m2")}
     for s in ("S1", "S2", "S3"):
@@ -153,7 +155,11 @@ def main():
     if len(sys.argv) > 2:
         s = {g: row(m) for g, m in load(sys.argv[2]).items()}
         both = [g for g in LAYOUTS if g in r and g in s]
-        for k in ("village_depth", "S3_Q", "area", "runout"):
+        # Arrivals are final in a run cut short (they are causal); depths, peaks and extents only at rest.
+        final = all(r[g]["at_rest"] and s[g]["at_rest"] for g in both)
+        keys = ["S1_t0", "S2_t0", "S3_t0", "village_arrival"]
+        keys += ["village_depth", "S3_Q", "area", "runout"] if final else []
+        for k in keys:
             a = [r[g][k] for g in both]
             b = [s[g][k] for g in both]
             if None in a or None in b:
