@@ -76,7 +76,7 @@ void expect_dam1_delays(const std::string& x) {
   const double t0 = m.at("G0").at(a.metric), t1 = m.at("G1").at(a.metric);
   std::printf("%s: G0 %.3f s, G1 %.3f s (%+.1f %%; draft error %.1f %%)\n", x.c_str(), t0, t1, 100 * (t1 / t0 - 1),
               100 * a.draft_error);
-  ASSERT_GT(t0, 0) << x << ": G0's front did not arrive before 100 s";
+  if (t0 <= 0) GTEST_SKIP() << x << ": G0's front did not arrive before 100 s (the fixture fails on that)";
   if (t1 < 0) return;  // G1's front held back past 100 s: delayed beyond any error
   EXPECT_LT(t0, (1 - a.draft_error) * t1) << x << ": Dam1 (G1) delays the front beyond the draft's arrival error";
 }
@@ -112,7 +112,10 @@ TEST(AlrStudy, DraftG0AndG1RunCleanToTheArrivals) {
     const double in = mv.at("mass.initial_kg") + mv.at("mass.inflow_kg");
     EXPECT_GT(in, 0) << variant << ": nothing flowed in";
     EXPECT_NEAR(mv.at("mass.final_kg") + mv.at("mass.outflow_kg"), in, 1e-9 * in) << variant << ": mass";
-    for (const auto& [x, a] : kArrivals) std::printf("%s %s arrival %.3f s\n", variant.c_str(), x.c_str(), mv.at(a.metric));
+    for (const auto& [x, a] : kArrivals) {  // the 30 000 m3 surge reaches every section and the Village by 71 s
+      std::printf("%s %s arrival %.3f s\n", variant.c_str(), x.c_str(), mv.at(a.metric));
+      EXPECT_GT(mv.at(a.metric), 0) << variant << ": the front never reached " << x << " by 100 s";
+    }
   }
   std::ofstream(kRuns / "metrics.json") << json{{"build", this_build()}, {"metrics", m}}.dump(1);
 }
